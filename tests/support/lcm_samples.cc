@@ -1,9 +1,12 @@
 // Writes one encoded, fully populated sample of every LCM type to OUT_DIR/<package>.<type>.bin.
 // The Java check (tests/java/LcmTypesCheck.java) decodes each with the jar, as lcm-spy does, and
 // requires the re-encoded bytes to be identical. Adding a .lcm file without a sample here fails
-// that check.
+// that check. With --log FILE it also writes them as an LCM log, one channel per type
+// (SAMPLE_<PACKAGE>_<TYPE>), to replay into lcm-spy with lcm-logplayer.
+#include <cctype>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -25,9 +28,12 @@
 #include <thicket/sim_world_t.hpp>
 #include <thicket/stereo_image_t.hpp>
 
+#include "thicket/common/lcm_log.h"
+
 namespace {
 
 std::string g_out_dir;
+std::unique_ptr<thicket::LogWriter> g_log;
 int g_written = 0;
 
 template <class Msg>
@@ -40,6 +46,11 @@ void save(const std::string& package, const Msg& msg) {
   }
   std::ofstream(g_out_dir + "/" + package + "." + Msg::getTypeName() + ".bin", std::ios::binary)
       .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  if (g_log) {
+    std::string channel = "SAMPLE_" + package + "_" + Msg::getTypeName();
+    for (char& c : channel) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    g_log->write(1'000'000 + 1000 * g_written, channel, bytes.data(), bytes.size());
+  }
   ++g_written;
 }
 
@@ -335,11 +346,13 @@ void procmanSamples() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::fprintf(stderr, "usage: %s OUT_DIR\n", argv[0]);
+  const bool with_log = argc == 4 && std::string(argv[2]) == "--log";
+  if (argc != 2 && !with_log) {
+    std::fprintf(stderr, "usage: %s OUT_DIR [--log FILE]\n", argv[0]);
     return 2;
   }
   g_out_dir = argv[1];
+  if (with_log) g_log = std::make_unique<thicket::LogWriter>(argv[3]);
   thicketSamples();
   procmanSamples();
   std::printf("wrote %d samples to %s\n", g_written, g_out_dir.c_str());
