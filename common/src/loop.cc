@@ -124,8 +124,10 @@ int Loop::poll(int timeout_ms) {
 
   int handled = 0;
   if (ready > 0 && (fds[0].revents & POLLIN) != 0) {
-    // Take what is complete now; a partial fragmented message is not waited for.
-    while (!stopRequested()) {
+    // Take what is complete now; a partial fragmented message is not waited for. A bounded
+    // batch, so that a flood of messages cannot starve the timers.
+    constexpr int kMaxBatch = 1000;
+    while (handled < kMaxBatch && !stopRequested()) {
       const int status = lcm_.handleTimeout(0);
       if (status < 0) return -1;
       if (status == 0) break;
