@@ -59,6 +59,21 @@ TEST_F(FakeClockTest, TimerCanRemoveItselfAndOthers) {
   EXPECT_EQ(b, 0);
 }
 
+TEST_F(FakeClockTest, AFloodOfMessagesDoesNotStarveTimers) {
+  Node node("node", lcm);
+  int handled = 0;
+  node.subscribe<setpoint_t>(
+      "S", [&](const setpoint_t&, const MessageInfo&) { ++handled; }, 2000);
+  int fired = 0;
+  loop.addTimer(100, [&] { ++fired; });
+  for (int i = 0; i < 1500; ++i) node.publish("S", setpoint_t{});
+  now += 100;
+  EXPECT_EQ(loop.poll(0), 1000);
+  EXPECT_EQ(fired, 1);
+  EXPECT_EQ(loop.poll(0), 500);
+  EXPECT_EQ(handled, 1500);
+}
+
 TEST_F(FakeClockTest, RejectsNonPositivePeriods) {
   EXPECT_THROW(loop.addTimer(0, [] {}), std::invalid_argument);
 }
