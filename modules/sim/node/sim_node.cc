@@ -1,0 +1,221 @@
+#include "sim_node.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include <thicket/odometry_t.hpp>
+#include <thicket/sim_world_t.hpp>
+#include <thicket/stereo_image_t.hpp>
+
+#include "thicket/common/depth_image.h"
+#include "thicket/common/time.h"
+
+namespace thicket::sim {
+
+void SimOptions::declare(Params& p) {
+  p("scenario", scenario, "world scenario: a name in worlds_dir or a path to a .yaml");
+  p("density", density, "cylinders per m^2 of the obstacle region", Range::between(0, 10));
+  p("seed", seed, "world seed (trial i of a benchmark uses seed base + i)");
+  p("worlds_dir", worlds_dir, "where scenario names are looked up; empty: config/worlds");
+  p.choice("sensor", sensor, {"depth", "stereo"}, "publish CAMERA_DEPTH or STEREO");
+  p("lockstep", lockstep, "wait for the planner's final status of each frame before stepping");
+  p("rate", rate, "cycles per wall-clock second without lockstep [Hz]", Range::positive());
+  p("lockstep_timeout", lockstep_timeout,
+    "wall-clock seconds to wait for the planner in lockstep before aborting [s]",
+    Range::positive());
+  p("odometry_rate", odometry_rate, "odometry messages per simulated second [Hz]",
+    Range::between(0.1, 1000));
+  p.group("vehicle", vehicle, "the simulated vehicle and mission limits");
+  p.group("depth_camera", depth_camera, "the depth camera (sensor: depth)");
+  p.group("stereo_camera", stereo_camera, "the stereo camera (sensor: stereo)");
+  p.group("odometry", odometry, "VIO-like drift and noise on VIO_ODOMETRY (off by default)");
+}
+
+namespace {
+
+image_t grayImage(int64_t utime, const std::string& camera, int width, int height,
+                  std::vector<uint8_t> pixels) {
+  image_t image{};
+  image.utime = utime;
+  image.camera_id = camera;
+  image.width = width;
+  image.height = height;
+  image.row_stride = width;
+  image.pixel_format = image_t::PIXEL_GRAY8;
+  image.encoding = image_t::ENCODING_RAW;
+  image.data = std::move(pixels);
+  image.size = static_cast<int32_t>(image.data.size());
+  return image;
+}
+
+}  // namespace
+
+SimNode::SimNode(lcm::LCM& lcm, const SimOptions& options, World world)
+    : Node("sim", lcm),
+      options_(options),
+      world_(std::move(world)),
+      truth_(world_),
+      vehicle_(truth_, options.vehicle),
+      odometry_(options.odometry) {
+  if (options_.sensor == "stereo") {
+    stereo_ = std::make_unique<StereoRenderer>(world_, options_.stereo_camera);
+  } else {
+    depth_ = std::make_unique<DepthRenderer>(world_, options_.depth_camera);
+  }
+  last_odometry_ = vehicle_.state();
+  subscribe<polynomial_trajectory_t>(
+      "PLANNER_TRAJECTORY",
+      [this](const polynomial_trajectory_t& msg, const MessageInfo&) { onTrajectory(msg); });
+  subscribe<planner_status_t>(
+      "PLANNER_STATUS",
+      [this](const planner_status_t& msg, const MessageInfo&) { onPlannerStatus(msg); });
+}
+
+void SimNode::start() {
+  sim_world_t msg{};
+  msg.utime = vehicle_.utime();
+  msg.scenario = world_.scenario;
+  msg.density = world_.density;
+  msg.seed = static_cast<int64_t>(world_.seed);
+  for (int i = 0; i < 3; ++i) {
+    msg.bounds_min[i] = world_.bounds_min[i];
+    msg.bounds_max[i] = world_.bounds_max[i];
+    msg.start[i] = world_.start[i];
+    msg.goal[i] = world_.goal[i];
+  }
+  msg.robot_radius = world_.robot_radius;
+  for (const Cylinder& c : world_.cylinders) {
+    msg.cylinder_x.push_back(c.x);
+    msg.cylinder_y.push_back(c.y);
+    msg.cylinder_radius.push_back(c.radius);
+    msg.cylinder_height.push_back(c.height);
+  }
+  msg.num_cylinders = static_cast<int32_t>(world_.cylinders.size());
+  publish("SIM_WORLD", msg);
+  publishEvent(sim_event_t::TYPE_TRIAL_START,
+               "scenario " + world_.scenario + ", density " + std::to_string(world_.density) +
+                   ", seed " + std::to_string(world_.seed) + ", " +
+                   std::to_string(world_.cylinders.size()) + " cylinders");
+  publishOdometry(vehicle_.state());
+  publishFrame();
+}
+
+void SimNode::publishOdometry(const PathSample& sample) {
+  publish("SIM_TRUTH", OdometrySimulator::truth(sample, last_odometry_, odometry_sequence_));
+  publish("VIO_ODOMETRY", odometry_.estimate(sample, last_odometry_, odometry_sequence_));
+  ++odometry_sequence_;
+  last_odometry_ = sample;
+}
+
+void SimNode::publishFrame() {
+  const PathSample& state = vehicle_.state();
+  const Pose body = Pose::fromYaw(state.position, state.yaw);
+  if (depth_) {
+    DepthImage image;
+    image.utime = state.utime;
+    image.camera = depth_->camera();
+    image.camera_in_body = depth_->cameraInBody();
+    image.min_range = 0.05;
+    image.max_range = options_.depth_camera.max_range;
+    depth_->render(body, image.depth, static_cast<uint64_t>(frame_));
+    depth_image_t msg = encodeDepthImage(image);
+    msg.camera_id = "sim_depth";
+    publish("CAMERA_DEPTH", msg);
+  } else {
+    std::vector<uint8_t> left, right;
+    stereo_->render(body, left, right);
+    const PinholeCamera camera = stereo_->camera();
+    stereo_image_t msg{};
+    msg.utime = state.utime;
+    msg.calibration_id = "sim_stereo";
+    msg.rectified = true;
+    msg.left = grayImage(state.utime, "left", camera.width, camera.height, std::move(left));
+    msg.right = grayImage(state.utime, "right", camera.width, camera.height, std::move(right));
+    publish("STEREO", msg);
+  }
+  ++frame_;
+  if (options_.lockstep) waiting_for_ = state.utime;
+}
+
+void SimNode::publishEvent(int8_t type, const std::string& message, int8_t outcome) {
+  const PathSample& state = vehicle_.state();
+  sim_event_t event{};
+  event.utime = state.utime;
+  event.type = type;
+  event.outcome = outcome;
+  event.cycle = vehicle_.cycle();
+  for (int i = 0; i < 3; ++i) event.position[i] = state.position[i];
+  event.clearance = state.clearance;
+  event.message = message;
+  event.num_replans = vehicle_.cycle();
+  event.path_length = vehicle_.pathLength();
+  event.path_time = toSeconds(state.utime - vehicle_.path().front().utime);
+  event.min_clearance = vehicle_.minClearance();
+  event.distance_to_goal = vehicle_.distanceToGoal();
+  publish("SIM_EVENT", event);
+}
+
+void SimNode::onTrajectory(const polynomial_trajectory_t& msg) {
+  if (finished_) return;
+  if (auto refused = vehicle_.commit(msg)) {
+    publishEvent(sim_event_t::TYPE_TRAJECTORY_REFUSED,
+                 "cycle " + std::to_string(msg.cycle) + ": " + *refused);
+  }
+}
+
+void SimNode::onPlannerStatus(const planner_status_t& msg) {
+  // The planner closes the frame it planned for with a final status planned from the state at
+  // (or after) the frame's time; earlier or non-final statuses do not step the simulation.
+  if (!options_.lockstep || finished_ || !waiting_for_ || !msg.is_final ||
+      msg.utime < *waiting_for_) {
+    return;
+  }
+  advance();
+}
+
+void SimNode::advance() {
+  if (finished_) return;
+  waiting_for_.reset();
+  const StepReport report = vehicle_.step();
+  const int64_t odometry_period = secondsToUtime(1.0 / options_.odometry_rate);
+  for (const PathSample& sample : report.samples) {
+    if (sample.utime - last_odometry_.utime >= odometry_period ||
+        &sample == &report.samples.back()) {
+      publishOdometry(sample);
+    }
+  }
+  if (report.collision) {
+    char text[160];
+    std::snprintf(text, sizeof(text), "collision at (%.2f, %.2f, %.2f): clearance %.3f m",
+                  report.collision->position.x(), report.collision->position.y(),
+                  report.collision->position.z(), report.collision->clearance);
+    publishEvent(sim_event_t::TYPE_COLLISION, text);
+  }
+  switch (report.outcome) {
+    case Outcome::kRunning:
+      publishFrame();
+      break;
+    case Outcome::kGoalReached:
+      finish("goal reached", sim_event_t::OUTCOME_GOAL_REACHED);
+      break;
+    case Outcome::kReplanLimit:
+      finish("replan limit reached", sim_event_t::OUTCOME_REPLAN_LIMIT);
+      break;
+    case Outcome::kCollision:
+      finish("collision", sim_event_t::OUTCOME_COLLISION);
+      break;
+  }
+}
+
+void SimNode::finish(const std::string& reason, int8_t outcome) {
+  publishEvent(sim_event_t::TYPE_TRIAL_END, reason, outcome);
+  end_reason_ = reason;
+  finished_ = true;
+  waiting_for_.reset();
+}
+
+void SimNode::abort(const std::string& reason) {
+  if (!finished_) finish("aborted: " + reason, sim_event_t::OUTCOME_ABORTED);
+}
+
+}  // namespace thicket::sim

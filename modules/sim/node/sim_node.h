@@ -1,0 +1,84 @@
+// thicket-sim as an LCM node: publishes the world, odometry and sensor frames of the simulated
+// vehicle, executes the planner's trajectories, and reports collisions and the mission outcome.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <thicket/planner_status_t.hpp>
+#include <thicket/polynomial_trajectory_t.hpp>
+#include <thicket/sim_event_t.hpp>
+
+#include "thicket/common/node.h"
+#include "thicket/common/params.h"
+#include "thicket/sim/ground_truth.h"
+#include "thicket/sim/odometry.h"
+#include "thicket/sim/render.h"
+#include "thicket/sim/vehicle.h"
+#include "thicket/sim/world.h"
+
+namespace thicket::sim {
+
+struct SimOptions {
+  std::string scenario = "paper";
+  double density = 0.2;
+  int64_t seed = 0;
+  std::string worlds_dir;  // empty: the source tree's config/worlds
+  std::string sensor = "depth";
+  bool lockstep = false;
+  double rate = 1.0;               // cycles per wall-clock second without lockstep
+  double lockstep_timeout = 30.0;  // wall-clock seconds to wait for the planner before aborting
+  double odometry_rate = 20.0;     // odometry messages per simulated second
+  VehicleOptions vehicle;
+  DepthCameraOptions depth_camera;
+  StereoCameraOptions stereo_camera;
+  OdometryNoiseOptions odometry;
+
+  void declare(Params& p);
+};
+
+class SimNode : public Node {
+ public:
+  SimNode(lcm::LCM& lcm, const SimOptions& options, World world);
+
+  /// Publishes the world, the trial start and the first frame.
+  void start();
+  /// Executes one replan period and publishes the next frame, or the trial end. Called by the
+  /// planner's final status in lockstep, by a timer otherwise.
+  void advance();
+  /// Ends the mission now (e.g. the planner stopped answering), with the reason.
+  void abort(const std::string& reason);
+
+  bool finished() const { return finished_; }
+  /// How the mission ended ("goal reached", "aborted: ..."), empty while it runs.
+  const std::string& endReason() const { return end_reason_; }
+  const Vehicle& vehicle() const { return vehicle_; }
+  const World& world() const { return world_; }
+  /// The frame the simulator waits on in lockstep (its utime), if any.
+  std::optional<int64_t> waitingFor() const { return waiting_for_; }
+
+ private:
+  void publishFrame();
+  void publishOdometry(const PathSample& sample);
+  void publishEvent(int8_t type, const std::string& message, int8_t outcome = 0);
+  void finish(const std::string& reason, int8_t outcome);
+  void onTrajectory(const polynomial_trajectory_t& msg);
+  void onPlannerStatus(const planner_status_t& msg);
+
+  SimOptions options_;
+  World world_;
+  GroundTruth truth_;
+  Vehicle vehicle_;
+  OdometrySimulator odometry_;
+  std::unique_ptr<DepthRenderer> depth_;
+  std::unique_ptr<StereoRenderer> stereo_;
+  PathSample last_odometry_;
+  int64_t odometry_sequence_ = 0;
+  int64_t frame_ = 0;
+  std::optional<int64_t> waiting_for_;
+  bool finished_ = false;
+  std::string end_reason_;
+};
+
+}  // namespace thicket::sim

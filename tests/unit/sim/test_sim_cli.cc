@@ -1,0 +1,106 @@
+// thicket-sim's offline commands as a user runs them: the printed world and the written PNG
+// match the core library's answers exactly, and bad arguments fail with a message.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "thicket/sim/render.h"
+#include "thicket/sim/world.h"
+
+namespace thicket::sim {
+namespace {
+
+struct CliResult {
+  int status;
+  std::string output;
+};
+
+CliResult run(const std::string& args) {
+  const std::string command = std::string(THICKET_SIM) + " " + args + " 2>&1";
+  FILE* pipe = ::popen(command.c_str(), "r");
+  std::string output;
+  char buffer[4096];
+  while (size_t n = std::fread(buffer, 1, sizeof(buffer), pipe)) output.append(buffer, n);
+  const int status = ::pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
+}
+
+World paperWorld(double density, uint64_t seed) {
+  auto spec = loadScenario("paper", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
+  return *generateWorld(*spec, density, seed);
+}
+
+TEST(SimCli, WorldPrintsTheGeneratedWorldAsJson) {
+  const CliResult result = run("world --scenario paper --density 0.3 --seed 42 --json");
+  ASSERT_EQ(result.status, 0) << result.output;
+  EXPECT_EQ(result.output, worldToJson(paperWorld(0.3, 42)) + "\n");
+}
+
+TEST(SimCli, RenderWritesMillimetreDepthOfTheCore) {
+  const std::string path =
+      ::testing::TempDir() + "/sim_cli_depth_" + std::to_string(::getpid()) + ".png";
+  const CliResult result =
+      run("render --scenario paper --density 0.3 --seed 42 --pose 1,5,1.5,0.3 --out " + path);
+  ASSERT_EQ(result.status, 0) << result.output;
+  const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(image.type(), CV_16UC1);
+  ASSERT_EQ(image.cols, 320);
+  ASSERT_EQ(image.rows, 240);
+
+  const DepthRenderer renderer(paperWorld(0.3, 42), {});
+  std::vector<float> depth;
+  renderer.render(Pose::fromYaw(Eigen::Vector3d(1, 5, 1.5), 0.3), depth);
+  int returns = 0;
+  for (int v = 0; v < image.rows; ++v) {
+    for (int u = 0; u < image.cols; ++u) {
+      const double mm = std::round(static_cast<double>(depth[v * image.cols + u]) * 1000.0);
+      const int expected = mm > 65535 ? 0 : static_cast<int>(mm);
+      ASSERT_EQ(image.at<uint16_t>(v, u), expected) << u << "," << v;
+      returns += expected > 0;
+    }
+  }
+  EXPECT_GT(returns, 320 * 240 / 2);
+  std::remove(path.c_str());
+}
+
+TEST(SimCli, BadArgumentsFailWithAMessage) {
+  CliResult result = run("world --scenario paper --density -1 --seed 1 --json");
+  EXPECT_EQ(result.status, 2);
+  EXPECT_NE(result.output.find("--density"), std::string::npos) << result.output;
+  result = run("world --scenario atlantis --density 0.1 --seed 1 --json");
+  EXPECT_EQ(result.status, 2);
+  EXPECT_NE(result.output.find("atlantis"), std::string::npos) << result.output;
+  result = run("render --scenario paper --density 0.1 --seed 1 --pose 1,2,3 --out /tmp/x.png");
+  EXPECT_EQ(result.status, 2);
+  EXPECT_NE(result.output.find("x,y,z,yaw"), std::string::npos) << result.output;
+  result = run("render --scenario paper --density 0.1 --seed 1 --bogus 3");
+  EXPECT_EQ(result.status, 2);
+  EXPECT_NE(result.output.find("unknown option --bogus"), std::string::npos) << result.output;
+  result = run("fly");
+  EXPECT_EQ(result.status, 2);
+  EXPECT_NE(result.output.find("unknown command"), std::string::npos) << result.output;
+}
+
+TEST(SimCli, RunWithoutAPlannerAbortsInLockstep) {
+  const std::string config =
+      ::testing::TempDir() + "/sim_cli_" + std::to_string(::getpid()) + ".yaml";
+  {
+    FILE* file = std::fopen(config.c_str(), "w");
+    std::fputs("lockstep: true\nlockstep_timeout: 0.2\ndepth_camera: {width: 32, height: 24}\n",
+               file);
+    std::fclose(file);
+  }
+  const CliResult result = run("run --lcm-url memq:// --config " + config + " --density 0.1 --seed 3");
+  EXPECT_EQ(result.status, 1) << result.output;
+  EXPECT_NE(result.output.find("aborted: no final planner status for 0.2"), std::string::npos) << result.output;
+  std::remove(config.c_str());
+}
+
+}  // namespace
+}  // namespace thicket::sim

@@ -1,0 +1,226 @@
+// thicket-sim's node in a memq:// composite with a scripted planner: lockstep stepping, the
+// messages of a mission, refusals, and byte-identical output from identical runs.
+#include <gtest/gtest.h>
+
+#include <thicket/depth_image_t.hpp>
+#include <thicket/odometry_t.hpp>
+#include <thicket/sim_world_t.hpp>
+
+#include "sim_node.h"
+#include "thicket/common/depth_image.h"
+#include "thicket/common/loop.h"
+
+namespace thicket::sim {
+namespace {
+
+World corridor() {
+  World world;
+  world.scenario = "corridor";
+  world.bounds_min = Eigen::Vector3d(0, 0, 0);
+  world.bounds_max = Eigen::Vector3d(20, 10, 5);
+  world.start = Eigen::Vector3d(1, 5, 1.5);
+  world.goal = Eigen::Vector3d(10, 5, 1.5);
+  world.robot_radius = 0.5;
+  world.cylinders = {{14.0, 5.0, 0.5, 4.0}, {6.0, 8.5, 0.3, 2.0}};
+  return world;
+}
+
+polynomial_trajectory_t restToRest(int64_t start_utime, const Eigen::Vector3d& from,
+                                   const Eigen::Vector3d& to, double duration) {
+  const Eigen::Vector3d d = to - from;
+  PolynomialSegment segment{duration, Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 4)};
+  segment.coefficients.col(0) = from;
+  segment.coefficients.col(2) = 3 * d / (duration * duration);
+  segment.coefficients.col(3) = -2 * d / (duration * duration * duration);
+  return PolynomialTrajectory::create(start_utime, {segment})->toLcm(0, 1);
+}
+
+// Answers every depth frame: the first one with a trajectory to the goal, each with a final
+// status planned from the frame's time.
+class ScriptedPlanner : public Node {
+ public:
+  explicit ScriptedPlanner(lcm::LCM& lcm, const World& world) : Node("planner", lcm) {
+    subscribe<depth_image_t>(
+        "CAMERA_DEPTH", [this, world](const depth_image_t& msg, const MessageInfo&) {
+          auto decoded = decodeDepthImage(msg);
+          EXPECT_TRUE(decoded) << decoded.error();
+          if (frames == 0)
+            publish("PLANNER_TRAJECTORY", restToRest(msg.utime, world.start, world.goal, 15));
+          planner_status_t status{};
+          status.utime = msg.utime;
+          status.cycle = frames++;
+          status.is_final = true;
+          publish("PLANNER_STATUS", status);
+        });
+  }
+  int frames = 0;
+};
+
+struct Recorded {
+  std::vector<std::string> channels;
+  std::vector<std::vector<uint8_t>> payloads;
+};
+
+SimOptions lockstepOptions() {
+  SimOptions options;
+  options.lockstep = true;
+  options.depth_camera.width = 64;
+  options.depth_camera.height = 48;
+  return options;
+}
+
+Recorded runMission(int* cycles = nullptr) {
+  lcm::LCM lcm("memq://");
+  Loop loop(lcm);
+  Recorded recorded;
+  Node recorder("recorder", lcm);
+  recorder.subscribeRaw(
+      ".*",
+      [&](const void* data, size_t size, const MessageInfo& info) {
+        recorded.channels.emplace_back(info.channel);
+        const auto* bytes = static_cast<const uint8_t*>(data);
+        recorded.payloads.emplace_back(bytes, bytes + size);
+      },
+      100000);
+  const World world = corridor();
+  SimNode sim(lcm, lockstepOptions(), world);
+  ScriptedPlanner planner(lcm, world);
+  sim.start();
+  while (loop.drain() > 0 && !sim.finished()) {
+  }
+  EXPECT_TRUE(sim.finished());
+  EXPECT_EQ(sim.vehicle().outcome(), Outcome::kGoalReached);
+  if (cycles) *cycles = sim.vehicle().cycle();
+  return recorded;
+}
+
+TEST(SimNode, FliesAScriptedMissionInLockstep) {
+  int cycles = 0;
+  const Recorded recorded = runMission(&cycles);
+  EXPECT_EQ(cycles, 14);
+  auto count = [&](const std::string& channel) {
+    return std::count(recorded.channels.begin(), recorded.channels.end(), channel);
+  };
+  EXPECT_EQ(count("SIM_WORLD"), 1);
+  EXPECT_EQ(count("CAMERA_DEPTH"), 14);  // frames 0..13; the 14th step ends the mission
+  EXPECT_EQ(count("PLANNER_STATUS"), 14);
+  EXPECT_EQ(count("SIM_TRUTH"), count("VIO_ODOMETRY"));
+  EXPECT_EQ(count("SIM_TRUTH"), 1 + 14 * 20);  // the start, then 20 Hz for 14 s
+
+  std::vector<sim_event_t> events;
+  for (size_t i = 0; i < recorded.channels.size(); ++i) {
+    if (recorded.channels[i] != "SIM_EVENT") continue;
+    sim_event_t event{};
+    ASSERT_EQ(decodeMessage(recorded.payloads[i].data(), recorded.payloads[i].size(), event), "");
+    events.push_back(event);
+  }
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events.front().type, +sim_event_t::TYPE_TRIAL_START);
+  EXPECT_EQ(events.back().type, +sim_event_t::TYPE_TRIAL_END);
+  EXPECT_EQ(events.back().outcome, +sim_event_t::OUTCOME_GOAL_REACHED);
+  EXPECT_EQ(events.back().num_replans, 14);
+  EXPECT_LE(events.back().distance_to_goal, 0.2);
+  EXPECT_NEAR(events.back().path_length, 9.0 - events.back().distance_to_goal, 1e-6);
+
+  // Every depth frame was taken where the truth says the vehicle was, at that time.
+  int64_t last_truth_utime = -1;
+  for (size_t i = 0; i < recorded.channels.size(); ++i) {
+    if (recorded.channels[i] == "SIM_TRUTH") {
+      odometry_t truth{};
+      ASSERT_EQ(decodeMessage(recorded.payloads[i].data(), recorded.payloads[i].size(), truth), "");
+      last_truth_utime = truth.utime;
+    } else if (recorded.channels[i] == "CAMERA_DEPTH") {
+      depth_image_t depth{};
+      ASSERT_EQ(decodeMessage(recorded.payloads[i].data(), recorded.payloads[i].size(), depth), "");
+      EXPECT_EQ(depth.utime, last_truth_utime);
+    }
+  }
+}
+
+TEST(SimNode, IdenticalRunsPublishIdenticalBytes) {
+  const Recorded a = runMission();
+  const Recorded b = runMission();
+  ASSERT_EQ(a.channels, b.channels);
+  for (size_t i = 0; i < a.payloads.size(); ++i) {
+    EXPECT_EQ(a.payloads[i], b.payloads[i]) << "message " << i << " on " << a.channels[i];
+  }
+}
+
+TEST(SimNode, StepsOnlyOnAFinalStatusForTheAwaitedFrame) {
+  lcm::LCM lcm("memq://");
+  Loop loop(lcm);
+  SimNode sim(lcm, lockstepOptions(), corridor());
+  Node planner("planner", lcm);
+  sim.start();
+  loop.drain();
+  ASSERT_EQ(sim.waitingFor(), std::optional<int64_t>(0));
+
+  planner_status_t status{};
+  status.utime = 0;
+  status.is_final = false;
+  planner.publish("PLANNER_STATUS", status);
+  loop.drain();
+  EXPECT_EQ(sim.vehicle().cycle(), 0);
+
+  status.is_final = true;
+  status.utime = -1;  // planned from an older state: not this frame
+  planner.publish("PLANNER_STATUS", status);
+  loop.drain();
+  EXPECT_EQ(sim.vehicle().cycle(), 0);
+
+  status.utime = 0;
+  planner.publish("PLANNER_STATUS", status);
+  loop.drain();
+  EXPECT_EQ(sim.vehicle().cycle(), 1);
+  EXPECT_EQ(sim.waitingFor(), std::optional<int64_t>(1'000'000));
+}
+
+TEST(SimNode, RefusedTrajectoriesAreReportedAndTheVehicleHolds) {
+  lcm::LCM lcm("memq://");
+  Loop loop(lcm);
+  const World world = corridor();
+  SimNode sim(lcm, lockstepOptions(), world);
+  Node planner("planner", lcm);
+  std::vector<sim_event_t> events;
+  planner.subscribe<sim_event_t>(
+      "SIM_EVENT", [&](const sim_event_t& event, const MessageInfo&) { events.push_back(event); });
+  sim.start();
+  loop.drain();
+
+  polynomial_trajectory_t bad = restToRest(0, world.start, world.goal, 15);
+  bad.durations[0] = -1;
+  planner.publish("PLANNER_TRAJECTORY", bad);
+  planner.publish("PLANNER_TRAJECTORY", restToRest(5'000'000, world.start, world.goal, 15));
+  loop.drain();
+  ASSERT_EQ(events.size(), 3u);
+  EXPECT_EQ(events[1].type, +sim_event_t::TYPE_TRAJECTORY_REFUSED);
+  EXPECT_NE(events[1].message.find("not positive"), std::string::npos) << events[1].message;
+  EXPECT_NE(events[2].message.find("in the future"), std::string::npos) << events[2].message;
+
+  sim.advance();
+  loop.drain();
+  EXPECT_EQ(sim.vehicle().state().position, world.start);
+}
+
+TEST(SimNode, AbortEndsTheMissionWithTheReason) {
+  lcm::LCM lcm("memq://");
+  Loop loop(lcm);
+  SimNode sim(lcm, lockstepOptions(), corridor());
+  Node listener("listener", lcm);
+  std::vector<sim_event_t> events;
+  listener.subscribe<sim_event_t>(
+      "SIM_EVENT", [&](const sim_event_t& event, const MessageInfo&) { events.push_back(event); });
+  sim.start();
+  sim.abort("no planner");
+  loop.drain();
+  EXPECT_TRUE(sim.finished());
+  EXPECT_EQ(sim.endReason(), "aborted: no planner");
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[1].outcome, +sim_event_t::OUTCOME_ABORTED);
+  EXPECT_EQ(events[1].message, "aborted: no planner");
+  sim.advance();
+  EXPECT_EQ(sim.vehicle().cycle(), 0);
+}
+
+}  // namespace
+}  // namespace thicket::sim
