@@ -5,6 +5,7 @@
 //                      [--left L.png --right R.png --calib C.yaml]   (a rectified stereo pair)
 //   thicket-sim run    [--lcm-url URL] [--config sim.yaml] [--lockstep]
 //                      [--scenario S] [--density D] [--seed N]
+//   thicket-sim params                 (every option of run's --config, with its default)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -28,6 +29,7 @@ constexpr const char* kUsage =
     "                          [--left L.png --right R.png --calib C.yaml]\n"
     "       thicket-sim run    [--config sim.yaml] [--lockstep] [--scenario S] [--density D]\n"
     "                          [--seed N]\n"
+    "       thicket-sim params (the options of --config with defaults and documentation)\n"
     "options of every command:\n"
     "  --worlds-dir DIR  where scenario names are looked up (default: config/worlds)\n";
 
@@ -223,8 +225,8 @@ int runCommand(int argc, char** argv) {
     loop.run();
     const auto& vehicle = node.vehicle();
     std::printf("thicket-sim: %s after %d cycles, path %.2f m, min clearance %.3f m\n",
-                node.finished() ? node.endReason().c_str() : "stopped", vehicle.cycle(), vehicle.pathLength(),
-                vehicle.minClearance());
+                node.finished() ? node.endReason().c_str() : "stopped", vehicle.cycle(),
+                vehicle.pathLength(), vehicle.minClearance());
     return vehicle.outcome() == thicket::sim::Outcome::kGoalReached ? 0 : 1;
   } catch (const std::exception& e) {
     return fail(e.what());
@@ -243,6 +245,10 @@ int main(int argc, char** argv) {
   if (command == "world") return worldCommand(rest);
   if (command == "render") return renderCommand(rest);
   if (command == "run") return runCommand(argc - 1, argv + 1);
+  if (command == "params") {
+    std::printf("%s", thicket::describeParams<SimOptions>().c_str());
+    return 0;
+  }
   if (command == "-h" || command == "--help") {
     std::printf("%s", kUsage);
     return 0;

@@ -6,10 +6,13 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "sim_node.h"
 #include "thicket/sim/render.h"
 #include "thicket/sim/world.h"
 
@@ -87,6 +90,20 @@ TEST(SimCli, BadArgumentsFailWithAMessage) {
   EXPECT_NE(result.output.find("unknown command"), std::string::npos) << result.output;
 }
 
+// config/params/sim.yaml documents every option; it must load and must not fall behind the code.
+TEST(SimCli, TheShippedParameterFileIsCurrent) {
+  const std::string path = std::string(THICKET_SOURCE_DIR) + "/config/params/sim.yaml";
+  std::ifstream in(path);
+  std::string header, text;
+  std::getline(in, header);
+  text.assign(std::istreambuf_iterator<char>(in), {});
+  const CliResult result = run("params");
+  ASSERT_EQ(result.status, 0);
+  EXPECT_EQ(text, result.output) << "regenerate: (echo '" << header
+                                 << "'; thicket-sim params) > config/params/sim.yaml";
+  EXPECT_NO_THROW(loadParams<SimOptions>(path));
+}
+
 TEST(SimCli, RunWithoutAPlannerAbortsInLockstep) {
   const std::string config =
       ::testing::TempDir() + "/sim_cli_" + std::to_string(::getpid()) + ".yaml";
@@ -96,9 +113,11 @@ TEST(SimCli, RunWithoutAPlannerAbortsInLockstep) {
                file);
     std::fclose(file);
   }
-  const CliResult result = run("run --lcm-url memq:// --config " + config + " --density 0.1 --seed 3");
+  const CliResult result =
+      run("run --lcm-url memq:// --config " + config + " --density 0.1 --seed 3");
   EXPECT_EQ(result.status, 1) << result.output;
-  EXPECT_NE(result.output.find("aborted: no final planner status for 0.2"), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find("aborted: no final planner status for 0.2"), std::string::npos)
+      << result.output;
   std::remove(config.c_str());
 }
 
