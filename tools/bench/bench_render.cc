@@ -1,10 +1,13 @@
-// Rendering speed on a forest50-like world at density 0.2 (BENCHMARK.md): a depth frame should
-// take under 2 ms and a stereo pair under 10 ms on one core.
-#include <random>
+// Rendering speed on the forest50 world at density 0.2 (BENCHMARK.md), from poses a vehicle
+// could fly: a depth frame should take under 2 ms and a stereo pair under 10 ms on one core.
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 #include <benchmark/benchmark.h>
 
+#include "thicket/sim/ground_truth.h"
 #include "thicket/sim/render.h"
 
 namespace thicket::sim {
@@ -12,34 +15,31 @@ namespace {
 
 constexpr int kPoses = 16;
 
-// The eye positions the benchmarks cycle through: a ring in the middle of the forest at 1.5 m.
-Pose benchPose(int i) {
-  const double angle = 2 * 3.14159265358979 * i / kPoses;
-  const Eigen::Vector3d position(25 + 12 * std::cos(angle), 25 + 12 * std::sin(angle), 1.5);
-  return Pose::fromYaw(position, 0.7 * i);
-}
-
-// 420 cylinders (density 0.2 on 50 x 50 m minus 2 m margins) drawn with a fixed seed, none within
-// 0.3 m of an eye.
 const World& forest() {
   static const World world = [] {
-    World w;
-    w.bounds_min = Eigen::Vector3d::Zero();
-    w.bounds_max = Eigen::Vector3d(50, 50, 5);
-    std::mt19937_64 rng(42);
-    std::uniform_real_distribution<double> xy(2, 48), radius(0.1, 0.5), height(2, 5);
-    while (w.cylinders.size() < 420) {
-      const Cylinder c{xy(rng), xy(rng), radius(rng), height(rng)};
-      bool clear = true;
-      for (int i = 0; i < kPoses; ++i) {
-        const Eigen::Vector3d eye = benchPose(i).position;
-        clear = clear && std::hypot(c.x - eye.x(), c.y - eye.y()) > c.radius + 0.3;
-      }
-      if (clear) w.cylinders.push_back(c);
-    }
-    return w;
+    auto spec = loadScenario("forest50", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
+    if (!spec) throw std::runtime_error(spec.error());
+    return *generateWorld(*spec, 0.2, 1);
   }();
   return world;
+}
+
+// Poses along the start-goal diagonal at 1.5 m, facing the goal, clear of every tree.
+Pose benchPose(int i) {
+  static const std::vector<Pose> poses = [] {
+    const World& world = forest();
+    const GroundTruth truth(world);
+    const Eigen::Vector3d direction = (world.goal - world.start).normalized();
+    std::vector<Pose> result;
+    for (double s = 2.0; result.size() < kPoses; s += 2.0) {
+      const Eigen::Vector3d p = world.start + s * direction;
+      if (truth.distance(p) > world.robot_radius) {
+        result.push_back(Pose::fromYaw(p, std::atan2(direction.y(), direction.x())));
+      }
+    }
+    return result;
+  }();
+  return poses[static_cast<size_t>(i % kPoses)];
 }
 
 void BM_DepthFrame(benchmark::State& state) {

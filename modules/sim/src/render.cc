@@ -221,10 +221,10 @@ PinholeCamera checkedCamera(const char* what, int width, int height, double hori
 constexpr int kOctaves = 7;
 constexpr double kCoarsestWavelength = 1.0;  // [m]
 constexpr double kFinestWavelength = kCoarsestWavelength / (1 << (kOctaves - 1));
-// Gray levels per unit of octave noise: the octaves a pixel sees have a standard deviation of
-// 20-34 gray levels (more octaves up close); under 0.1 % of a forest image saturates.
+// Gray levels per unit of octave noise: a forest image has a standard deviation of about 30 gray
+// levels, and under 0.1 % of its pixels saturate.
 constexpr double kContrast = 60;
-// Grazing views stretch a pixel's footprint by 1 / cos(incidence), up to this cap.
+// Grazing views stretch a pixel's footprint by 1 / cos(incidence), capped at 1 / this.
 constexpr double kMinCosIncidence = 0.05;
 
 inline uint32_t hash32(uint32_t h) {  // "lowbias32" (C. Wellons): an avalanching 32-bit mix
@@ -243,20 +243,20 @@ inline uint32_t hash32(uint32_t h) {  // "lowbias32" (C. Wellons): an avalanchin
 constexpr int kLatticeBits = 8;
 constexpr int kLatticeMask = (1 << kLatticeBits) - 1;
 
-const float* latticeTable() {
-  static const std::vector<float> table = [] {
-    std::vector<float> values(1 << (2 * kLatticeBits));
+// Lattice coordinates are shifted by this many cells, so that they are positive (for surfaces
+// within 260 km of the origin) and truncation floors them: std::floor is a library call without
+// SSE4.1.
+constexpr double kLatticeShift = 1 << 24;
+
+const double* latticeTable() {
+  static const std::vector<double> table = [] {
+    std::vector<double> values(1 << (2 * kLatticeBits));
     for (size_t i = 0; i < values.size(); ++i) {
-      values[i] = static_cast<float>(hash32(static_cast<uint32_t>(i)) * 0x1.0p-32);
+      values[i] = hash32(static_cast<uint32_t>(i)) * 0x1.0p-32;
     }
     return values;
   }();
   return table.data();
-}
-
-inline int floorToInt(double x) {  // std::floor is a library call without SSE4.1
-  const int i = static_cast<int>(x);
-  return i - (x < i);
 }
 
 inline double smoothStep(double t) {
@@ -265,9 +265,11 @@ inline double smoothStep(double t) {
 
 // Value noise in [0, 1) on the unit lattice: random values at integer points, smoothly
 // interpolated.
-inline double valueNoise(const float* table, double x, double y, uint32_t offset) {
-  const int x0 = floorToInt(x);
-  const int y0 = floorToInt(y);
+inline double valueNoise(const double* table, double x, double y, uint32_t offset) {
+  x += kLatticeShift;
+  y += kLatticeShift;
+  const int x0 = static_cast<int>(x);
+  const int y0 = static_cast<int>(y);
   const double tx = smoothStep(x - x0);
   const double ty = smoothStep(y - y0);
   const int col0 = (x0 + static_cast<int>(offset)) & kLatticeMask;
@@ -296,7 +298,7 @@ inline double octaveWeight(int octave, double inverse_footprint) {
 }
 
 // An octave's contribution, before weighting: value noise in [-0.5, 0.5).
-inline double octaveNoise(const float* table, int octave, const TexturePoint& point) {
+inline double octaveNoise(const double* table, int octave, const TexturePoint& point) {
   const double frequency = (1 << octave) / kCoarsestWavelength;
   const uint32_t offset = point.seed + 0x9e3779b9U * static_cast<uint32_t>(octave);
   return valueNoise(table, point.s * frequency, point.w * frequency, offset) - 0.5;
@@ -638,7 +640,7 @@ void StereoRenderer::render(const Pose& world_T_body, std::vector<uint8_t>& left
 
 void StereoRenderer::renderCamera(const Pose& world_T_camera, std::vector<uint8_t>& image) const {
   const RayCaster::View view = caster_.view(world_T_camera.position, options_.max_range);
-  const float* table = latticeTable();
+  const double* table = latticeTable();
   image.assign(static_cast<size_t>(camera_.width) * camera_.height, kSkyIntensity);
   const Eigen::Matrix3d world_R_camera = world_T_camera.orientation.toRotationMatrix();
   const Eigen::Vector3d image_right = world_R_camera.col(0);
@@ -675,8 +677,8 @@ void StereoRenderer::renderCamera(const Pose& world_T_camera, std::vector<uint8_
 
 double StereoRenderer::pixelFootprint(const SurfaceHit& hit, const Eigen::Vector3d& unit_dir,
                                       double range, const Eigen::Vector3d& image_right) const {
-  // One pixel to the right turns the ray by 1 / fx rad about the image's down axis, which moves
-  // its hit by range / fx along image_right projected onto the surface along the ray. Only this
+  // One pixel to the right turns the ray by about 1 / fx rad, which moves its hit by about
+  // range / fx along image_right, projected onto the surface along the ray. Only this
   // footprint is filtered: along a column the two cameras sample the same epipolar plane, so
   // whatever aliasing there is along it, they share.
   const Eigen::Vector3d normal = surfaceNormal(hit, cylinders_);

@@ -104,6 +104,25 @@ TEST(SimCli, TheShippedParameterFileIsCurrent) {
   EXPECT_NO_THROW(loadParams<SimOptions>(path));
 }
 
+// Without lockstep the simulator steps on its own clock; with no planner the vehicle hovers
+// until the replan limit.
+TEST(SimCli, RunFreelyHoversToTheReplanLimitWithoutAPlanner) {
+  const std::string config =
+      ::testing::TempDir() + "/sim_cli_free_" + std::to_string(::getpid()) + ".yaml";
+  {
+    FILE* file = std::fopen(config.c_str(), "w");
+    std::fputs("rate: 200\nvehicle: {replan_limit: 3}\ndepth_camera: {width: 32, height: 24}\n",
+               file);
+    std::fclose(file);
+  }
+  const CliResult result = run("run --lcm-url memq:// --config " + config + " --seed 3");
+  EXPECT_EQ(result.status, 1) << result.output;
+  EXPECT_NE(result.output.find("replan limit reached after 3 cycles, path 0.00 m"),
+            std::string::npos)
+      << result.output;
+  std::remove(config.c_str());
+}
+
 TEST(SimCli, RunWithoutAPlannerAbortsInLockstep) {
   const std::string config =
       ::testing::TempDir() + "/sim_cli_" + std::to_string(::getpid()) + ".yaml";
