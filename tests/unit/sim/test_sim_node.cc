@@ -7,32 +7,17 @@
 #include <thicket/sim_world_t.hpp>
 
 #include "sim_node.h"
+#include "sim_test_support.h"
 #include "thicket/common/depth_image.h"
 #include "thicket/common/loop.h"
 
 namespace thicket::sim {
 namespace {
 
-World corridor() {
-  World world;
-  world.scenario = "corridor";
-  world.bounds_min = Eigen::Vector3d(0, 0, 0);
-  world.bounds_max = Eigen::Vector3d(20, 10, 5);
-  world.start = Eigen::Vector3d(1, 5, 1.5);
-  world.goal = Eigen::Vector3d(10, 5, 1.5);
-  world.robot_radius = 0.5;
-  world.cylinders = {{14.0, 5.0, 0.5, 4.0}, {6.0, 8.5, 0.3, 2.0}};
-  return world;
-}
+using testing::restToRest;
 
-polynomial_trajectory_t restToRest(int64_t start_utime, const Eigen::Vector3d& from,
-                                   const Eigen::Vector3d& to, double duration) {
-  const Eigen::Vector3d d = to - from;
-  PolynomialSegment segment{duration, Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 4)};
-  segment.coefficients.col(0) = from;
-  segment.coefficients.col(2) = 3 * d / (duration * duration);
-  segment.coefficients.col(3) = -2 * d / (duration * duration * duration);
-  return PolynomialTrajectory::create(start_utime, {segment})->toLcm(0, 1);
+World corridor() {
+  return testing::corridor({{14.0, 5.0, 0.5, 4.0}, {6.0, 8.5, 0.3, 2.0}});
 }
 
 // Answers every depth frame: the first one with a trajectory to the goal, each with a final

@@ -4,22 +4,14 @@
 
 #include <cmath>
 
+#include "sim_test_support.h"
 #include "thicket/sim/vehicle.h"
 
 namespace thicket::sim {
 namespace {
 
-World corridor(std::vector<Cylinder> cylinders = {}) {
-  World world;
-  world.scenario = "test";
-  world.bounds_min = Eigen::Vector3d(0, 0, 0);
-  world.bounds_max = Eigen::Vector3d(20, 10, 5);
-  world.start = Eigen::Vector3d(1, 5, 1.5);
-  world.goal = Eigen::Vector3d(10, 5, 1.5);
-  world.robot_radius = 0.5;
-  world.cylinders = std::move(cylinders);
-  return world;
-}
+using testing::corridor;
+using testing::restToRest;
 
 // x(t) = x0 + v t per axis, one segment.
 polynomial_trajectory_t line(int64_t start_utime, const Eigen::Vector3d& from,
@@ -28,17 +20,6 @@ polynomial_trajectory_t line(int64_t start_utime, const Eigen::Vector3d& from,
   segment.coefficients.col(0) = from;
   segment.coefficients.col(1) = velocity;
   return PolynomialTrajectory::create(start_utime, {segment})->toLcm(0, 1);
-}
-
-// A cubic from `from` to `to` at rest at both ends, over `duration` seconds.
-polynomial_trajectory_t restToRest(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                                   double duration) {
-  const Eigen::Vector3d d = to - from;
-  PolynomialSegment segment{duration, Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 4)};
-  segment.coefficients.col(0) = from;
-  segment.coefficients.col(2) = 3 * d / (duration * duration);
-  segment.coefficients.col(3) = -2 * d / (duration * duration * duration);
-  return PolynomialTrajectory::create(0, {segment})->toLcm(0, 1);
 }
 
 struct VehicleTest : ::testing::Test {
@@ -92,7 +73,7 @@ TEST_F(VehicleTest, ReportsTheFirstSampleInsideTheRobotRadius) {
 
 TEST_F(VehicleTest, ReachesTheGoalAndStops) {
   Vehicle vehicle(truth, {});
-  ASSERT_FALSE(vehicle.commit(restToRest(world.start, world.goal, 15.0)));
+  ASSERT_FALSE(vehicle.commit(restToRest(0, world.start, world.goal, 15.0)));
   while (vehicle.outcome() == Outcome::kRunning) vehicle.step();
   EXPECT_EQ(vehicle.outcome(), Outcome::kGoalReached);
   // 0.2 m short of 9 m on a cubic profile is reached between 13 and 14 s.
@@ -118,7 +99,7 @@ TEST_F(VehicleTest, EndsAtTheReplanLimit) {
 TEST_F(VehicleTest, HoldsTheEndOfAFinishedTrajectory) {
   Vehicle vehicle(truth, {});
   const Eigen::Vector3d end = world.start + Eigen::Vector3d(1, 0, 0);
-  ASSERT_FALSE(vehicle.commit(restToRest(world.start, end, 1.5)));
+  ASSERT_FALSE(vehicle.commit(restToRest(0, world.start, end, 1.5)));
   vehicle.step();
   vehicle.step();
   vehicle.step();
