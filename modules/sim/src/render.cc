@@ -547,15 +547,23 @@ void RayCaster::View::cast(std::span<const Eigen::Vector3d> unit_dirs, std::span
 
 // --- DepthRenderer ----------------------------------------------------------------------------
 
-void DepthCameraOptions::declare(Params& p) {
+// The image size, field of view and mount that depth and stereo cameras share.
+void declareCameraGeometry(Params& p, int& width, int& height, double& horizontal_fov_deg,
+                           double& pitch_down_deg, Eigen::Vector3d& position_in_body,
+                           const char* position_doc) {
   p("width", width, "image width [pixels]", Range::atLeast(1));
   p("height", height, "image height [pixels]", Range::atLeast(1));
   p("horizontal_fov_deg", horizontal_fov_deg, "horizontal field of view [deg]",
     Range::between(1, 179));
-  p("max_range", max_range, "longest return, as range along the ray [m]", Range::positive());
   p("pitch_down_deg", pitch_down_deg, "mount pitch, positive looks down [deg]",
     Range::between(-90, 90));
-  p("position_in_body", position_in_body, "optical centre in the body frame [m]");
+  p("position_in_body", position_in_body, position_doc);
+}
+
+void DepthCameraOptions::declare(Params& p) {
+  declareCameraGeometry(p, width, height, horizontal_fov_deg, pitch_down_deg, position_in_body,
+                        "optical centre in the body frame [m]");
+  p("max_range", max_range, "longest return, as range along the ray [m]", Range::positive());
   p("noise_stddev_at_1m", noise_stddev_at_1m,
     "depth noise sigma = this * depth^2, 0 = noiseless [1/m]", Range::atLeast(0));
 }
@@ -602,15 +610,10 @@ void DepthRenderer::render(const Pose& world_T_body, std::vector<float>& depth_m
 // --- StereoRenderer ---------------------------------------------------------------------------
 
 void StereoCameraOptions::declare(Params& p) {
-  p("width", width, "image width [pixels]", Range::atLeast(1));
-  p("height", height, "image height [pixels]", Range::atLeast(1));
-  p("horizontal_fov_deg", horizontal_fov_deg, "horizontal field of view [deg]",
-    Range::between(1, 179));
+  declareCameraGeometry(p, width, height, horizontal_fov_deg, pitch_down_deg, position_in_body,
+                        "left optical centre in the body frame [m]");
   p("baseline", baseline, "distance of the right camera along the left's x [m]", Range::positive());
   p("max_range", max_range, "surfaces beyond this range look like the sky [m]", Range::positive());
-  p("pitch_down_deg", pitch_down_deg, "mount pitch, positive looks down [deg]",
-    Range::between(-90, 90));
-  p("position_in_body", position_in_body, "left optical centre in the body frame [m]");
 }
 
 StereoRenderer::StereoRenderer(const World& world, StereoCameraOptions options)

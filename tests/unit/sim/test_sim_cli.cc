@@ -34,6 +34,18 @@ CliResult run(const std::string& args) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
 }
 
+// A parameter file for one test, removed when the test ends.
+struct TempConfig {
+  std::string path;
+  explicit TempConfig(const std::string& text)
+      : path(::testing::TempDir() + "/sim_cli_" +
+             ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" +
+             std::to_string(::getpid()) + ".yaml") {
+    std::ofstream(path) << text;
+  }
+  ~TempConfig() { std::remove(path.c_str()); }
+};
+
 World paperWorld(double density, uint64_t seed) {
   auto spec = loadScenario("paper", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
   return *generateWorld(*spec, density, seed);
@@ -107,37 +119,23 @@ TEST(SimCli, TheShippedParameterFileIsCurrent) {
 // Without lockstep the simulator steps on its own clock; with no planner the vehicle hovers
 // until the replan limit.
 TEST(SimCli, RunFreelyHoversToTheReplanLimitWithoutAPlanner) {
-  const std::string config =
-      ::testing::TempDir() + "/sim_cli_free_" + std::to_string(::getpid()) + ".yaml";
-  {
-    FILE* file = std::fopen(config.c_str(), "w");
-    std::fputs("rate: 200\nvehicle: {replan_limit: 3}\ndepth_camera: {width: 32, height: 24}\n",
-               file);
-    std::fclose(file);
-  }
-  const CliResult result = run("run --lcm-url memq:// --config " + config + " --seed 3");
+  const TempConfig config(
+      "rate: 200\nvehicle: {replan_limit: 3}\ndepth_camera: {width: 32, height: 24}\n");
+  const CliResult result = run("run --lcm-url memq:// --config " + config.path + " --seed 3");
   EXPECT_EQ(result.status, 1) << result.output;
   EXPECT_NE(result.output.find("replan limit reached after 3 cycles, path 0.00 m"),
             std::string::npos)
       << result.output;
-  std::remove(config.c_str());
 }
 
 TEST(SimCli, RunWithoutAPlannerAbortsInLockstep) {
-  const std::string config =
-      ::testing::TempDir() + "/sim_cli_" + std::to_string(::getpid()) + ".yaml";
-  {
-    FILE* file = std::fopen(config.c_str(), "w");
-    std::fputs("lockstep: true\nlockstep_timeout: 0.2\ndepth_camera: {width: 32, height: 24}\n",
-               file);
-    std::fclose(file);
-  }
+  const TempConfig config(
+      "lockstep: true\nlockstep_timeout: 0.2\ndepth_camera: {width: 32, height: 24}\n");
   const CliResult result =
-      run("run --lcm-url memq:// --config " + config + " --density 0.1 --seed 3");
+      run("run --lcm-url memq:// --config " + config.path + " --density 0.1 --seed 3");
   EXPECT_EQ(result.status, 1) << result.output;
   EXPECT_NE(result.output.find("aborted: no final planner status for 0.2"), std::string::npos)
       << result.output;
-  std::remove(config.c_str());
 }
 
 }  // namespace
