@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -188,13 +189,38 @@ std::vector<Eigen::Vector3d> opticalRays(const PinholeCamera& camera) {
   return rays;
 }
 
-// Row v's rays (from opticalRays) turned into the world. A ray depends on its own pixel only,
-// so any split of the image (e.g. rows across threads) gives the same rays.
-void rowRays(const std::vector<Eigen::Vector3d>& optical_rays, int width, int v,
-             const Eigen::Matrix3d& world_R_camera, std::vector<Eigen::Vector3d>& dirs) {
-  dirs.resize(width);
-  const Eigen::Vector3d* row = optical_rays.data() + static_cast<size_t>(v) * width;
-  for (int u = 0; u < width; ++u) dirs[u] = world_R_camera * row[u];
+// Casts every pixel's centre ray (optical_rays, from opticalRays) from the view and hands the
+// results over a line of pixels at a time: visit(first, stride, dirs, ranges, hits) for pixels
+// first + k * stride, whose world rays are dirs[k]; hits is empty unless with_hits. A level
+// camera (optical x and z horizontal) goes column by column, each column a fan (see
+// View::castFan); any other row by row. A ray's result depends on its own pixel only.
+template <class Visit>
+void castImage(const RayCaster::View& view, const PinholeCamera& camera,
+               const std::vector<Eigen::Vector3d>& optical_rays,
+               const Eigen::Matrix3d& world_R_camera, bool with_hits, Visit&& visit) {
+  const bool level =
+      std::abs(world_R_camera(2, 0)) <= 1e-12 && std::abs(world_R_camera(2, 2)) <= 1e-12;
+  const int lines = level ? camera.width : camera.height;
+  const int length = level ? camera.height : camera.width;
+  const int stride = level ? camera.width : 1;
+  std::vector<Eigen::Vector3d> dirs(length);
+  std::vector<double> ranges(length);
+  std::vector<SurfaceHit> hits(with_hits ? length : 0);
+  for (int line = 0; line < lines; ++line) {
+    const int first = level ? line : line * camera.width;
+    for (int k = 0; k < length; ++k) {
+      dirs[k] = world_R_camera * optical_rays[static_cast<size_t>(first) + k * stride];
+    }
+    if (level) {
+      const Eigen::Vector3d& top = optical_rays[first];
+      const Eigen::Vector2d azimuth =
+          (world_R_camera.col(0) * top.x() + world_R_camera.col(2) * top.z()).head<2>();
+      view.castFan(azimuth.normalized(), dirs, ranges, hits);
+    } else {
+      view.cast(dirs, ranges, hits);
+    }
+    visit(first, stride, dirs, ranges, hits);
+  }
 }
 
 PinholeCamera checkedCamera(const char* what, int width, int height, double horizontal_fov_deg,
@@ -216,12 +242,23 @@ PinholeCamera checkedCamera(const char* what, int width, int height, double hori
 
 // --- The stereo texture ---------------------------------------------------------------------
 
-// Octave wavelengths halve from 1 m to 1.6 cm: coarse ones vary the brightness of a surface, the
-// finest that a pixel resolves give the pixel-scale detail a matcher needs, at any range.
+// The texture is one periodic tile of value noise that every surface shows at its own offset:
+// 2^kTileBits texels of 1 / kTexelsPerMetre square (10.24 m), the sum of seven octaves whose
+// lattice cells measure 2 texels (2 cm) up to 128 texels (1.28 m). Coarse octaves vary the
+// brightness of a surface, fine ones give the pixel-scale detail a matcher needs. Box-filtered mip
+// levels, sampled trilinearly as a GPU does, low-pass it to a pixel's footprint: eight texel reads
+// per pixel, near each other for neighbouring pixels. The tile repeats every 10.24 m on a surface,
+// at least 36 times the disparity at any range (fx * 10.24 m / z against fx * 0.11 m / z), so a
+// matcher never confuses a point with its repeat.
+constexpr int kTileBits = 10;
+constexpr int kTileTexels = 1 << kTileBits;
+constexpr double kTexelsPerMetre = 100;
 constexpr int kOctaves = 7;
-constexpr double kCoarsestWavelength = 1.0;  // [m]
-constexpr double kFinestWavelength = kCoarsestWavelength / (1 << (kOctaves - 1));
-// Gray levels per unit of octave noise: a forest image has a standard deviation of about 30 gray
+constexpr int kLevels = kTileBits + 1;  // 1024 x 1024 texels down to 1 x 1
+// Texel coordinates are shifted by this multiple of the tile at every level, so that they are
+// positive for surfaces within 160 km of the origin and truncation floors them.
+constexpr double kTexelShift = 1 << 24;
+// Gray levels per unit of noise: a forest image has a standard deviation of about 30 gray
 // levels, and under 0.1 % of its pixels saturate.
 constexpr double kContrast = 60;
 // Grazing views stretch a pixel's footprint by 1 / cos(incidence), capped at 1 / this.
@@ -236,92 +273,150 @@ inline uint32_t hash32(uint32_t h) {  // "lowbias32" (C. Wellons): an avalanchin
   return h;
 }
 
-// Value noise reads its random lattice values from one 256 x 256 table, each octave of each
-// surface at its own offset, rather than hashing four lattice points per octave. The table
-// repeats every 256 cells, but an octave shows only where a cell spans two pixels or more, so a
-// repeat is at least 512 pixels away: far beyond any disparity a matcher searches.
-constexpr int kLatticeBits = 8;
-constexpr int kLatticeMask = (1 << kLatticeBits) - 1;
-
-// Lattice coordinates are shifted by this many cells, so that they are positive (for surfaces
-// within 260 km of the origin) and truncation floors them: std::floor is a library call without
-// SSE4.1.
-constexpr double kLatticeShift = 1 << 24;
-
-const double* latticeTable() {
-  static const std::vector<double> table = [] {
-    std::vector<double> values(1 << (2 * kLatticeBits));
-    for (size_t i = 0; i < values.size(); ++i) {
-      values[i] = hash32(static_cast<uint32_t>(i)) * 0x1.0p-32;
-    }
-    return values;
-  }();
-  return table.data();
-}
-
 inline double smoothStep(double t) {
   return t * t * (3.0 - 2.0 * t);
 }
 
-// Value noise in [0, 1) on the unit lattice: random values at integer points, smoothly
-// interpolated.
-inline double valueNoise(const double* table, double x, double y, uint32_t offset) {
-  x += kLatticeShift;
-  y += kLatticeShift;
-  const int x0 = static_cast<int>(x);
-  const int y0 = static_cast<int>(y);
-  const double tx = smoothStep(x - x0);
-  const double ty = smoothStep(y - y0);
-  const int col0 = (x0 + static_cast<int>(offset)) & kLatticeMask;
-  const int col1 = (col0 + 1) & kLatticeMask;
-  const int row0 = ((y0 + static_cast<int>(offset >> kLatticeBits)) & kLatticeMask) << kLatticeBits;
-  const int row1 = (row0 + (1 << kLatticeBits)) & (kLatticeMask << kLatticeBits);
-  const double bottom = table[row0 + col0] + tx * (table[row0 + col1] - table[row0 + col0]);
-  const double top = table[row1 + col0] + tx * (table[row1 + col1] - table[row1 + col0]);
-  return bottom + ty * (top - bottom);
-}
+class TextureTile {
+ public:
+  static const TextureTile& instance() {
+    static const TextureTile tile;
+    return tile;
+  }
 
-// A surface point in texture space: coordinates on the surface [m] and the surface's mean gray
-// level and seed (which places its octaves in the lattice table).
-struct TexturePoint {
-  double s = 0, w = 0;
-  double mean = 0;
-  uint32_t seed = 0;
+  // The noise (mean about 0, within +-3.5) around level-0 texel coordinates (x, y), filtered to
+  // a footprint of footprint_texels: level log2(footprint_texels), linearly between levels.
+  double sample(double x, double y, double footprint_texels) const {
+    x += kTexelShift;
+    y += kTexelShift;
+    if (!(footprint_texels > 1)) return bilinear(0, x, y);
+    // log2 by the exponent and a linear mantissa: exact at powers of two, monotonic between.
+    const uint64_t bits = std::bit_cast<uint64_t>(footprint_texels);
+    const int level = static_cast<int>(bits >> 52) - 1023;
+    if (level >= kLevels - 1) return bilinear(kLevels - 1, x, y);
+    const double blend = static_cast<double>(bits & ((uint64_t{1} << 52) - 1)) * 0x1.0p-52;
+    const double fine = bilinear(level, x, y);
+    return fine + blend * (bilinear(level + 1, x, y) - fine);
+  }
+
+ private:
+  TextureTile() {
+    std::vector<float>& base = levels_[0];
+    base.assign(size_t{1} << (2 * kTileBits), 0.0f);
+    std::vector<double> lattice;
+    for (int octave = 0; octave < kOctaves; ++octave) {
+      const int cell = 2 << octave;  // texels
+      const int cells = kTileTexels / cell;
+      lattice.resize(static_cast<size_t>(cells) * cells);
+      for (int cy = 0; cy < cells; ++cy) {
+        for (int cx = 0; cx < cells; ++cx) {
+          const uint32_t key = static_cast<uint32_t>((octave << 20) | (cy << 10) | cx);
+          lattice[static_cast<size_t>(cy) * cells + cx] = hash32(key) * 0x1.0p-32 - 0.5;
+        }
+      }
+      const auto at = [&](int cx, int cy) {
+        return lattice[static_cast<size_t>(cy % cells) * cells + cx % cells];
+      };
+      for (int y = 0; y < kTileTexels; ++y) {
+        const double fy = (y + 0.5) / cell;
+        const int cy = static_cast<int>(fy);
+        const double ty = smoothStep(fy - cy);
+        for (int x = 0; x < kTileTexels; ++x) {
+          const double fx = (x + 0.5) / cell;
+          const int cx = static_cast<int>(fx);
+          const double tx = smoothStep(fx - cx);
+          const double bottom = at(cx, cy) + tx * (at(cx + 1, cy) - at(cx, cy));
+          const double top = at(cx, cy + 1) + tx * (at(cx + 1, cy + 1) - at(cx, cy + 1));
+          base[texelIndex(kTileBits, x, y)] += static_cast<float>(bottom + ty * (top - bottom));
+        }
+      }
+    }
+    for (int level = 1; level < kLevels; ++level) {
+      const std::vector<float>& fine = levels_[level - 1];
+      const int size = kTileTexels >> level;
+      std::vector<float>& coarse = levels_[level];
+      coarse.resize(static_cast<size_t>(size) * size);
+      const int fine_bits = kTileBits - level + 1;
+      for (uint32_t y = 0; y < static_cast<uint32_t>(size); ++y) {
+        for (uint32_t x = 0; x < static_cast<uint32_t>(size); ++x) {
+          coarse[texelIndex(fine_bits - 1, x, y)] =
+              0.25f * (fine[texelIndex(fine_bits, 2 * x, 2 * y)] +
+                       fine[texelIndex(fine_bits, 2 * x + 1, 2 * y)] +
+                       fine[texelIndex(fine_bits, 2 * x, 2 * y + 1)] +
+                       fine[texelIndex(fine_bits, 2 * x + 1, 2 * y + 1)]);
+        }
+      }
+    }
+  }
+
+  // Where texel (x, y) of a level 2^bits texels square is stored: in blocks of 4 x 4 texels,
+  // one cache line of floats, so that walking the texture along a row or a column (an image
+  // column may run either way on a surface) reads a new line every four texels, not every one.
+  static size_t texelIndex(int bits, uint32_t x, uint32_t y) {
+    if (bits < 2) return (static_cast<size_t>(y) << bits) + x;
+    const size_t block = (static_cast<size_t>(y >> 2) << (bits - 2)) + (x >> 2);
+    return (block << 4) + ((y & 3) << 2) + (x & 3);
+  }
+
+  // Bilinear between the texel centres of a level, at shifted level-0 coordinates.
+  [[gnu::always_inline]] double bilinear(int level, double x, double y) const {
+    const int bits = kTileBits - level;
+    const uint32_t mask = (uint32_t{1} << bits) - 1;
+    const double scale = kLevelScale[level];
+    const double lx = x * scale - 0.5;
+    const double ly = y * scale - 0.5;
+    const int64_t x0 = static_cast<int64_t>(lx);
+    const int64_t y0 = static_cast<int64_t>(ly);
+    const double tx = lx - static_cast<double>(x0);
+    const double ty = ly - static_cast<double>(y0);
+    const uint32_t col0 = static_cast<uint32_t>(x0) & mask;
+    const uint32_t col1 = (col0 + 1) & mask;
+    const uint32_t row0 = static_cast<uint32_t>(y0) & mask;
+    const uint32_t row1 = (row0 + 1) & mask;
+    const float* t = levels_[level].data();
+    const double t00 = t[texelIndex(bits, col0, row0)];
+    const double t10 = t[texelIndex(bits, col1, row0)];
+    const double t01 = t[texelIndex(bits, col0, row1)];
+    const double t11 = t[texelIndex(bits, col1, row1)];
+    const double bottom = t00 + tx * (t10 - t00);
+    const double top = t01 + tx * (t11 - t01);
+    return bottom + ty * (top - bottom);
+  }
+
+  static constexpr std::array<double, kLevels> kLevelScale = [] {
+    std::array<double, kLevels> scale{};
+    for (int level = 0; level < kLevels; ++level) scale[level] = 1.0 / (1 << level);
+    return scale;
+  }();
+
+  std::array<std::vector<float>, kLevels> levels_;
 };
 
-// How much of an octave a pixel with the given 1 / footprint shows: all of it down to four
-// footprints per wavelength, none at two (the pixel's Nyquist limit), linear in between. An
-// octave fades out to its mean, which keeps the average brightness of a surface at any range.
-inline double octaveWeight(int octave, double inverse_footprint) {
-  const double wavelength = kFinestWavelength * (1 << (kOctaves - 1 - octave));
-  return std::min(0.5 * wavelength * inverse_footprint - 1.0, 1.0);
-}
+// A surface point in texture space: level-0 texel coordinates in the tile (surface coordinates
+// plus the surface's own offset) and the surface's mean gray level.
+struct TexturePoint {
+  double x = 0, y = 0;
+  double mean = 0;
+};
 
-// An octave's contribution, before weighting: value noise in [-0.5, 0.5).
-inline double octaveNoise(const double* table, int octave, const TexturePoint& point) {
-  const double frequency = (1 << octave) / kCoarsestWavelength;
-  const uint32_t offset = point.seed + 0x9e3779b9U * static_cast<uint32_t>(octave);
-  return valueNoise(table, point.s * frequency, point.w * frequency, offset) - 0.5;
-}
-
-double gray(const TexturePoint& point, double octave_sum) {
-  return point.mean + kContrast * octave_sum;
-}
-
-// Surfaces of one kind share a mean gray level; each surface has its own seed, and each cylinder
-// an offset of up to +-20 gray levels, so that neighbouring trees differ.
+// Surfaces of one kind share a mean gray level; each surface has its own offset in the tile, and
+// each cylinder a mean offset of up to +-20 gray levels, so that neighbouring trees differ.
 TexturePoint texturePoint(const SurfaceHit& hit, const std::vector<Cylinder>& cylinders) {
   const Eigen::Vector3d& p = hit.point;
   const uint32_t seed =
       hash32((static_cast<uint32_t>(hit.surface) << 24) ^ static_cast<uint32_t>(hit.index));
-  const double offset = (seed >> 24) * (40.0 / 255.0) - 20.0;
+  const double mean_offset = (seed >> 24) * (40.0 / 255.0) - 20.0;
+  const auto point = [seed](double s, double w, double mean) {
+    return TexturePoint{s * kTexelsPerMetre + (seed & (kTileTexels - 1)),
+                        w * kTexelsPerMetre + ((seed >> kTileBits) & (kTileTexels - 1)), mean};
+  };
   switch (hit.surface) {
     case Surface::kGround:
-      return {p.x(), p.y(), 105, seed};
+      return point(p.x(), p.y(), 105);
     case Surface::kWall:
-      return {hit.index < 2 ? p.y() : p.x(), p.z(), 150, seed};
+      return point(hit.index < 2 ? p.y() : p.x(), p.z(), 150);
     case Surface::kCylinderCap:
-      return {p.x(), p.y(), 140 + offset, seed};
+      return point(p.x(), p.y(), 140 + mean_offset);
     case Surface::kCylinderSide: {
       // Around the trunk: pseudoAngle scaled to the circumference, 0.79-1.57 times the arc
       // length and much cheaper than atan2. The texture has a seam where it wraps (on the +x
@@ -330,7 +425,7 @@ TexturePoint texturePoint(const SurfaceHit& hit, const std::vector<Cylinder>& cy
       const double dx = p.x() - c.x;
       const double dy = p.y() - c.y;
       const double quarter_turns = (dx == 0 && dy == 0) ? 0 : pseudoAngle(dx, dy);
-      return {quarter_turns * (0.5 * pi * c.radius), p.z(), 85 + offset, seed};
+      return point(quarter_turns * (0.5 * pi * c.radius), p.z(), 85 + mean_offset);
     }
     case Surface::kNone:
       break;
@@ -482,16 +577,20 @@ double RayCaster::View::cast(const Eigen::Vector3d& unit_dir, SurfaceHit* hit) c
   return range;
 }
 
+bool RayCaster::View::startCasting(const char* caller, size_t rays, std::span<double> ranges,
+                                   std::span<SurfaceHit> hits) const {
+  if (ranges.size() != rays || !(hits.empty() || hits.size() == rays)) {
+    throw std::invalid_argument(std::string(caller) + ": sizes of rays and results differ");
+  }
+  if (containing_solid_.surface == Surface::kNone) return true;
+  std::fill(ranges.begin(), ranges.end(), 0.0);
+  std::fill(hits.begin(), hits.end(), containing_solid_);
+  return false;
+}
+
 void RayCaster::View::cast(std::span<const Eigen::Vector3d> unit_dirs, std::span<double> ranges,
                            std::span<SurfaceHit> hits) const {
-  if (ranges.size() != unit_dirs.size() || !(hits.empty() || hits.size() == unit_dirs.size())) {
-    throw std::invalid_argument("RayCaster::View::cast: sizes of rays and results differ");
-  }
-  if (containing_solid_.surface != Surface::kNone) {
-    std::fill(ranges.begin(), ranges.end(), 0.0);
-    std::fill(hits.begin(), hits.end(), containing_solid_);
-    return;
-  }
+  if (!startCasting("RayCaster::View::cast", unit_dirs.size(), ranges, hits)) return;
   // Rays go through in batches. Each ray first meets the boundary and the cylinders around the
   // eye, then its azimuth bin's candidates one per round, nearest first, while the next one can
   // be nearer than its best hit. A round takes one candidate of every ray still going, so that
@@ -545,6 +644,105 @@ void RayCaster::View::cast(std::span<const Eigen::Vector3d> unit_dirs, std::span
   }
 }
 
+void RayCaster::View::castFan(const Eigen::Vector2d& azimuth,
+                              std::span<const Eigen::Vector3d> unit_dirs, std::span<double> ranges,
+                              std::span<SurfaceHit> hits) const {
+  if (!(std::abs(azimuth.squaredNorm() - 1) <= 1e-12)) {
+    throw std::invalid_argument("RayCaster::View::castFan: the azimuth must be a unit vector");
+  }
+  const double ax = azimuth.x();
+  const double ay = azimuth.y();
+  const auto inFan = [ax, ay](const Eigen::Vector3d& d, double xy) {
+    return std::abs(d.x() * ay - d.y() * ax) <= 1e-9 * xy && d.x() * ax + d.y() * ay > 0;
+  };
+  for (const Eigen::Vector3d& d : unit_dirs) {
+    const double xy = std::sqrt(d.x() * d.x() + d.y() * d.y());
+    if (xy > 1e-9 && !inFan(d, xy)) {
+      throw std::invalid_argument("RayCaster::View::castFan: a ray is not in the fan");
+    }
+  }
+  if (!startCasting("RayCaster::View::castFan", unit_dirs.size(), ranges, hits)) return;
+  // Where the fan's vertical half-plane crosses each cylinder footprint, as xy travel s from the
+  // eye: the ray of slope m = dz / |dxy| is at height eye.z + m * s there. It enters the side
+  // where the footprint starts (from outside it), or the cap from above in between.
+  struct Crossing {
+    double s_in, s_out;
+    bool from_outside;
+    int index;
+  };
+  std::vector<Crossing> crossings;
+  const auto cross = [&](int j) {
+    const Solid& c = solids_[j];
+    const double px = eye_.x() - c.x;
+    const double py = eye_.y() - c.y;
+    const double outside = px * px + py * py - c.radius_sq;
+    const double b = px * ax + py * ay;
+    const double discriminant = b * b - outside;
+    if (discriminant < 0 || (outside > 0 && b >= 0)) return;  // missed, or behind the eye
+    const double far = std::sqrt(discriminant) - b;
+    const double s_in = outside > 0 ? outside / far : 0.0;  // the stable form, as in cast()
+    if (s_in <= max_range_) crossings.push_back({s_in, far, outside > 0, j});
+  };
+  for (const int j : around_eye_) cross(j);
+  const int bin = azimuthBin(pseudoAngle(ax, ay));
+  for (uint32_t k = bin_begin_[bin];
+       k < bin_begin_[bin + 1] && candidates_[k].min_xy_travel <= max_range_; ++k) {
+    cross(candidates_[k].index);
+  }
+  std::sort(crossings.begin(), crossings.end(), [](const Crossing& a, const Crossing& b) {
+    return a.s_in != b.s_in ? a.s_in < b.s_in : a.index < b.index;
+  });
+  // The walls' vertical planes ahead, where the fan crosses them within the walls' extent.
+  struct WallCrossing {
+    double s;
+    int index;
+  };
+  std::vector<WallCrossing> walls;
+  for (int axis = 0; axis < 2 && walls_in_range_; ++axis) {
+    const int other = 1 - axis;
+    for (int side = 0; side < 2; ++side) {
+      const double s =
+          ((side == 0 ? bounds_min_[axis] : bounds_max_[axis]) - eye_[axis]) / azimuth[axis];
+      const double q = eye_[other] + s * azimuth[other];
+      if (s >= 0 && q >= bounds_min_[other] && q <= bounds_max_[other]) {
+        walls.push_back({s, 2 * axis + side});
+      }
+    }
+  }
+
+  for (size_t i = 0; i < unit_dirs.size(); ++i) {
+    const Eigen::Vector3d& d = unit_dirs[i];
+    SurfaceHit* hit = hits.empty() ? nullptr : &hits[i];
+    const double xy = std::sqrt(d.x() * d.x() + d.y() * d.y());
+    if (!(xy > 1e-9)) {
+      ranges[i] = cast(d, hit);  // (almost) vertical: in every fan
+      continue;
+    }
+    const double slope = d.z() / xy;
+    const double z0 = eye_.z();
+    Nearest best;  // in xy travel until converted below
+    if (slope < 0) best.offer((bounds_min_.z() - z0) / slope, Surface::kGround, -1);
+    for (const WallCrossing& wall : walls) {
+      const double z = z0 + slope * wall.s;
+      if (z >= bounds_min_.z() && z <= bounds_max_.z())
+        best.offer(wall.s, Surface::kWall, wall.index);
+    }
+    for (const Crossing& c : crossings) {
+      if (c.s_in >= best.t) break;
+      const double height = solids_[c.index].height;
+      const double z_in = z0 + slope * c.s_in;
+      if (c.from_outside && z_in >= 0 && z_in <= height) {
+        best.offer(c.s_in, Surface::kCylinderSide, c.index);
+      } else if (slope < 0 && z0 > height) {
+        const double s_cap = (height - z0) / slope;
+        if (s_cap >= c.s_in && s_cap <= c.s_out) best.offer(s_cap, Surface::kCylinderCap, c.index);
+      }
+    }
+    best.t /= xy;
+    ranges[i] = report(best, makeRay(eye_, d), max_range_, hit);
+  }
+}
+
 // --- DepthRenderer ----------------------------------------------------------------------------
 
 // The image size, field of view and mount that depth and stereo cameras share.
@@ -588,23 +786,20 @@ void DepthRenderer::render(const Pose& world_T_body, std::vector<float>& depth_m
   const double noise = options_.noise_stddev_at_1m;
   const uint64_t noise_key = splitMix64(noise_seed);
   depth_m.assign(static_cast<size_t>(camera_.width) * camera_.height, 0.0f);
-  const Eigen::Matrix3d world_R_camera = world_T_camera.orientation.toRotationMatrix();
-  std::vector<Eigen::Vector3d> dirs;
-  std::vector<double> ranges(camera_.width);
-  for (int v = 0; v < camera_.height; ++v) {
-    rowRays(optical_rays_, camera_.width, v, world_R_camera, dirs);
-    view.cast(dirs, ranges);
-    for (int u = 0; u < camera_.width; ++u) {
-      if (ranges[u] == RayCaster::kNoHit) continue;
-      const int i = v * camera_.width + u;
-      double depth = ranges[u] * optical_rays_[i].z();
-      if (noise > 0) {
-        depth += noise * depth * depth * standardNormal(noise_key, i);
-        if (!(depth > 0)) depth = 0;
-      }
-      depth_m[i] = static_cast<float>(depth);
-    }
-  }
+  castImage(view, camera_, optical_rays_, world_T_camera.orientation.toRotationMatrix(), false,
+            [&](int first, int stride, const std::vector<Eigen::Vector3d>&,
+                const std::vector<double>& ranges, const std::vector<SurfaceHit>&) {
+              for (size_t k = 0; k < ranges.size(); ++k) {
+                if (ranges[k] == RayCaster::kNoHit) continue;
+                const size_t i = first + k * stride;
+                double depth = ranges[k] * optical_rays_[i].z();
+                if (noise > 0) {
+                  depth += noise * depth * depth * standardNormal(noise_key, i);
+                  if (!(depth > 0)) depth = 0;
+                }
+                depth_m[i] = static_cast<float>(depth);
+              }
+            });
 }
 
 // --- StereoRenderer ---------------------------------------------------------------------------
@@ -643,39 +838,20 @@ void StereoRenderer::render(const Pose& world_T_body, std::vector<uint8_t>& left
 
 void StereoRenderer::renderCamera(const Pose& world_T_camera, std::vector<uint8_t>& image) const {
   const RayCaster::View view = caster_.view(world_T_camera.position, options_.max_range);
-  const double* table = latticeTable();
   image.assign(static_cast<size_t>(camera_.width) * camera_.height, kSkyIntensity);
   const Eigen::Matrix3d world_R_camera = world_T_camera.orientation.toRotationMatrix();
   const Eigen::Vector3d image_right = world_R_camera.col(0);
-  std::vector<Eigen::Vector3d> dirs;
-  std::vector<double> ranges(camera_.width), inverse_footprints(camera_.width),
-      octave_sums(camera_.width);
-  std::vector<SurfaceHit> hits(camera_.width);
-  std::vector<TexturePoint> points(camera_.width);
-  for (int v = 0; v < camera_.height; ++v) {
-    rowRays(optical_rays_, camera_.width, v, world_R_camera, dirs);
-    view.cast(dirs, ranges, hits);
-    for (int u = 0; u < camera_.width; ++u) {
-      octave_sums[u] = 0;
-      inverse_footprints[u] = 0;  // shows no octave
-      if (ranges[u] == RayCaster::kNoHit) continue;
-      points[u] = texturePoint(hits[u], cylinders_);
-      inverse_footprints[u] = 1.0 / pixelFootprint(hits[u], dirs[u], ranges[u], image_right);
-    }
-    // Octave by octave over the whole row: the same sums as surfaceIntensity, whose per-pixel
-    // loop would leave the CPU waiting on one pixel at a time.
-    for (int octave = 0; octave < kOctaves; ++octave) {
-      for (int u = 0; u < camera_.width; ++u) {
-        const double weight = octaveWeight(octave, inverse_footprints[u]);
-        if (weight > 0) octave_sums[u] += weight * octaveNoise(table, octave, points[u]);
-      }
-    }
-    for (int u = 0; u < camera_.width; ++u) {
-      if (ranges[u] == RayCaster::kNoHit) continue;
-      const double gray_level = std::clamp(gray(points[u], octave_sums[u]), 0.0, 255.0);
-      image[v * camera_.width + u] = static_cast<uint8_t>(gray_level + 0.5);
-    }
-  }
+  castImage(view, camera_, optical_rays_, world_R_camera, true,
+            [&](int first, int stride, const std::vector<Eigen::Vector3d>& dirs,
+                const std::vector<double>& ranges, const std::vector<SurfaceHit>& hits) {
+              for (size_t k = 0; k < ranges.size(); ++k) {
+                if (ranges[k] == RayCaster::kNoHit) continue;
+                const double footprint = pixelFootprint(hits[k], dirs[k], ranges[k], image_right);
+                const double gray = surfaceIntensity(hits[k], footprint);
+                image[first + k * stride] =
+                    static_cast<uint8_t>(std::clamp(gray, 0.0, 255.0) + 0.5);
+              }
+            });
 }
 
 double StereoRenderer::pixelFootprint(const SurfaceHit& hit, const Eigen::Vector3d& unit_dir,
@@ -694,13 +870,8 @@ double StereoRenderer::pixelFootprint(const SurfaceHit& hit, const Eigen::Vector
 
 double StereoRenderer::surfaceIntensity(const SurfaceHit& hit, double footprint_m) const {
   const TexturePoint point = texturePoint(hit, cylinders_);
-  const double inverse_footprint = 1.0 / footprint_m;
-  double octave_sum = 0;
-  for (int octave = 0; octave < kOctaves; ++octave) {
-    const double weight = octaveWeight(octave, inverse_footprint);
-    if (weight > 0) octave_sum += weight * octaveNoise(latticeTable(), octave, point);
-  }
-  return gray(point, octave_sum);
+  return point.mean + kContrast * TextureTile::instance().sample(point.x, point.y,
+                                                                 footprint_m * kTexelsPerMetre);
 }
 
 std::string StereoRenderer::calibrationYaml(const std::string& id) const {

@@ -199,7 +199,7 @@ TEST(RayCaster, DepthMatchesBruteForceNearAndAboveCylinders) {
       bodyPose({11.0, 10.0, 4.0}, 0.0),       // above both, between them
       bodyPose({10.0 - 0.5, 10.0, 1.2}, pi),  // right at the stump's edge, looking away
   };
-  for (double pitch : {90.0, 60.0, 30.0}) {
+  for (double pitch : {90.0, 60.0, 30.0, 0.0}) {
     const DepthRenderer renderer(world, smallCamera(pitch));
     for (size_t i = 0; i < poses.size(); ++i) {
       expectMatchesReference(world, renderer, poses[i],
@@ -331,6 +331,78 @@ TEST(RayCaster, ViewCastsManyRaysBitForBitAsOneByOne) {
   EXPECT_GT(hit_count, 500);
   std::vector<double> too_few(dirs.size() - 1);
   EXPECT_THROW(view.cast(dirs, too_few), std::invalid_argument);
+}
+
+TEST(RayCaster, FansAgreeWithTheReference) {
+  // Eyes anywhere, inside the walls and out, over cylinders and between them; every fan's rays
+  // sweep from straight down to straight up.
+  const World world = randomForest(12, 300, 30);
+  const RayCaster caster(world);
+  std::mt19937_64 rng(19);
+  std::uniform_real_distribution<double> xy(-3, 33), z(0.1, 7.0), angle(-pi, pi);
+  int hits = 0, caps = 0, walls = 0;
+  for (int e = 0; e < 40; ++e) {
+    Eigen::Vector3d eye;
+    do {
+      eye = Eigen::Vector3d(xy(rng), xy(rng), z(rng));
+    } while (insideSolid(world, eye));
+    const double max_range = e % 3 == 0 ? kInf : 20.0;
+    const RayCaster::View view = caster.view(eye, max_range);
+    for (int f = 0; f < 10; ++f) {
+      const double azimuth_angle = f == 0 ? 0.0 : angle(rng);  // 0: the bins' wrap-around
+      const Eigen::Vector2d azimuth(std::cos(azimuth_angle), std::sin(azimuth_angle));
+      std::vector<Eigen::Vector3d> dirs;
+      for (int k = 0; k <= 60; ++k) {
+        const double elevation = (k / 60.0 - 0.5) * pi;
+        dirs.emplace_back(std::cos(elevation) * azimuth.x(), std::cos(elevation) * azimuth.y(),
+                          std::sin(elevation));
+      }
+      std::vector<double> ranges(dirs.size());
+      std::vector<SurfaceHit> fan_hits(dirs.size());
+      view.castFan(azimuth, dirs, ranges, fan_hits);
+      for (size_t k = 0; k < dirs.size(); ++k) {
+        const double reference = referenceRange(world, eye, dirs[k]);
+        SurfaceHit single;
+        const double range_single = view.cast(dirs[k], &single);
+        if (reference == kInf || reference > max_range) {
+          EXPECT_EQ(ranges[k], RayCaster::kNoHit);
+          continue;
+        }
+        ++hits;
+        caps += fan_hits[k].surface == SurfaceHit::Surface::kCylinderCap;
+        walls += fan_hits[k].surface == SurfaceHit::Surface::kWall;
+        ASSERT_NEAR(ranges[k], reference, 1e-9 * reference) << "eye " << eye.transpose();
+        EXPECT_EQ(fan_hits[k].surface, single.surface);
+        EXPECT_EQ(fan_hits[k].index, single.index);
+        EXPECT_LT((fan_hits[k].point - (eye + range_single * dirs[k])).norm(), 1e-9);
+      }
+    }
+  }
+  EXPECT_GT(hits, 10000);
+  EXPECT_GT(caps, 50);
+  EXPECT_GT(walls, 200);
+}
+
+TEST(RayCaster, FansRefuseRaysOutsideThemAndBadAzimuths) {
+  const World world = emptyWorld(Eigen::Vector3d::Zero(), Eigen::Vector3d(20, 20, 5));
+  const RayCaster::View view = RayCaster(world).view({10, 10, 1.5}, 20);
+  const Eigen::Vector2d azimuth(0.6, 0.8);
+  std::vector<Eigen::Vector3d> dirs = {Eigen::Vector3d(0.6, 0.8, 0).normalized()};
+  std::vector<double> ranges(1);
+  EXPECT_NO_THROW(view.castFan(azimuth, dirs, ranges));
+  dirs[0] = Eigen::Vector3d(-0.6, -0.8, 0);  // the opposite half-plane
+  EXPECT_THROW(view.castFan(azimuth, dirs, ranges), std::invalid_argument);
+  dirs[0] = Eigen::Vector3d(0.6, 0.8 + 1e-6, 0).normalized();
+  EXPECT_THROW(view.castFan(azimuth, dirs, ranges), std::invalid_argument);
+  dirs[0] = Eigen::Vector3d(0.6, 0.8, 0);
+  EXPECT_THROW(view.castFan({0.6, 0.7}, dirs, ranges), std::invalid_argument);
+  EXPECT_THROW(view.castFan({NAN, 0.8}, dirs, ranges), std::invalid_argument);
+  std::vector<double> too_many(2);
+  EXPECT_THROW(view.castFan(azimuth, dirs, too_many), std::invalid_argument);
+  // Straight up or down is in every fan.
+  dirs[0] = Eigen::Vector3d(0, 0, -1);
+  view.castFan(azimuth, dirs, ranges);
+  EXPECT_NEAR(ranges[0], 1.5, 1e-12);
 }
 
 TEST(RayCaster, OriginsInsideSolidsHitAtRangeZero) {
@@ -621,6 +693,39 @@ TEST(StereoRenderer, MostSurfacePixelsAreTextured) {
   }
   ASSERT_GT(surface, camera.width * camera.height / 2);
   EXPECT_GT(textured, 0.8 * surface) << textured << " of " << surface;
+}
+
+TEST(StereoRenderer, TextureIsFilteredToThePixelFootprint) {
+  // Over many ground points, the texture keeps the ground's mean gray level at every footprint
+  // and loses contrast as the footprint grows; a footprint as large as the texture's period
+  // averages it all away.
+  const StereoRenderer renderer(stereoForest(), StereoCameraOptions{});
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> xy(0, 30);
+  std::vector<Eigen::Vector3d> points(4000);
+  for (Eigen::Vector3d& p : points) p = Eigen::Vector3d(xy(rng), xy(rng), 0);
+  double previous_stddev = kInf;
+  for (double footprint : {0.01, 0.03, 0.1, 0.3, 1.0}) {
+    double sum = 0, sum_sq = 0;
+    for (const Eigen::Vector3d& p : points) {
+      const double gray =
+          renderer.surfaceIntensity({SurfaceHit::Surface::kGround, -1, p}, footprint);
+      sum += gray;
+      sum_sq += gray * gray;
+    }
+    const double mean = sum / points.size();
+    const double stddev = std::sqrt(sum_sq / points.size() - mean * mean);
+    EXPECT_NEAR(mean, 105, 3) << footprint;
+    EXPECT_LT(stddev, previous_stddev) << footprint;
+    previous_stddev = stddev;
+  }
+  EXPECT_GT(previous_stddev, 0.5);
+  const double flat = renderer.surfaceIntensity({SurfaceHit::Surface::kGround, -1, points[0]}, 20);
+  for (const Eigen::Vector3d& p : points) {
+    ASSERT_NEAR(renderer.surfaceIntensity({SurfaceHit::Surface::kGround, -1, p}, 20), flat, 1e-4);
+  }
+  EXPECT_NEAR(flat, 105, 3);
+  EXPECT_THROW(renderer.surfaceIntensity({}, 0.01), std::invalid_argument);
 }
 
 TEST(StereoRenderer, RenderingIsDeterministic) {

@@ -63,11 +63,25 @@ class RayCaster {
     void cast(std::span<const Eigen::Vector3d> unit_dirs, std::span<double> ranges,
               std::span<SurfaceHit> hits = {}) const;
 
+    /// cast() for a vertical fan: rays whose xy parts all point along the unit 2-D azimuth
+    /// (within 1e-9 rad), such as a column of a camera without roll or pitch. They share which
+    /// cylinders they pass and where, so the fan finds those once and each ray only checks
+    /// heights: several times faster than cast(), and equal to it up to rounding. Rays with
+    /// (almost) no xy part are cast one by one. Throws std::invalid_argument when the sizes
+    /// differ, azimuth is not a unit vector, or a ray is not in the fan.
+    void castFan(const Eigen::Vector2d& azimuth, std::span<const Eigen::Vector3d> unit_dirs,
+                 std::span<double> ranges, std::span<SurfaceHit> hits = {}) const;
+
     const Eigen::Vector3d& eye() const { return eye_; }
     double maxRange() const { return max_range_; }
 
    private:
     friend class RayCaster;
+
+    // Checks the sizes of a cast's results; fills them and returns false when the eye is inside
+    // a solid, so that every ray hits it at range 0.
+    bool startCasting(const char* caller, size_t rays, std::span<double> ranges,
+                      std::span<SurfaceHit> hits) const;
 
     // A cylinder as the intersection test wants it.
     struct Solid {
@@ -174,14 +188,14 @@ struct StereoCameraOptions {
 
 /// Renders rectified grayscale stereo pairs of a World: both cameras share intrinsics and
 /// orientation, the right one is displaced by the baseline along the left's optical x. Every
-/// surface carries a procedural texture, value noise in surface coordinates with seven octaves
-/// of wavelengths 1 m down to 1.6 cm, that depends on the surface point only, so both cameras see
-/// the same texture; there is no lighting. A pixel samples the texture at its centre ray's hit,
-/// low-pass filtered to the pixel's footprint there (octaves shorter than two footprints fade
-/// out), rather than supersampled: one ray per pixel instead of four, and no aliasing along the
-/// rows, where the two cameras sample the surface at different points. The footprint is the one
-/// along the row: along a column both cameras sample the same epipolar plane, so whatever
-/// aliasing there is, they share.
+/// surface carries a procedural texture, a tile of value noise in surface coordinates (seven
+/// octaves, cells of 2 cm up to 1.28 m, repeating every 10.24 m) at the surface's own offset,
+/// that depends on the surface point only, so both cameras see the same texture; there is no
+/// lighting. A pixel samples the texture at its centre ray's hit, low-pass filtered to the
+/// pixel's footprint there by mip-mapping, rather than supersampled: one ray per pixel instead
+/// of four, and no aliasing along the rows, where the two cameras sample the surface at
+/// different points. The footprint is the one along the row: along a column both cameras sample
+/// the same epipolar plane, so whatever aliasing there is, they share.
 class StereoRenderer {
  public:
   /// The gray level of pixels that see nothing within max_range.
@@ -204,8 +218,8 @@ class StereoRenderer {
   const StereoCameraOptions& options() const { return options_; }
 
   /// The gray level (about [0, 255], before clamping) of the texture at a hit surface point
-  /// (surface not kNone), with octaves shorter than two footprint_m faded out: what a pixel with
-  /// that footprint sees there. Throws std::invalid_argument for surface kNone.
+  /// (surface not kNone), filtered to a pixel footprint of footprint_m: what a pixel with that
+  /// footprint sees there. Throws std::invalid_argument for surface kNone.
   double surfaceIntensity(const SurfaceHit& hit, double footprint_m) const;
 
   /// The calibration as OpenCV FileStorage YAML, as cv::stereoCalibrate would describe this
