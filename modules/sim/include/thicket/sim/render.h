@@ -42,7 +42,9 @@ struct SurfaceHit {
 /// cylinders of its bin in order until none can be nearer than its best hit (or than the ground
 /// or a wall): about one per ray in a forest of 0.2 trees/m^2. A 2-D grid walked by DDA would
 /// visit several cells per ray, each with cylinders overlapping it, and suits rays from many
-/// points; rays from one point are what cameras cast.
+/// points; rays from one point are what cameras cast. A camera without roll or pitch casts each
+/// image column as a fan (View::castFan): its rays share an azimuth, so they share the cylinders
+/// they pass, found once per column.
 class RayCaster {
  public:
   /// The range returned when no surface is within the maximum range.
