@@ -1,11 +1,11 @@
 #include "thicket/common/depth_image.h"
 
-#include <zstd.h>
-
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <string>
+
+#include "thicket/common/compression.h"
 
 namespace thicket {
 namespace {
@@ -64,14 +64,7 @@ depth_image_t encodeDepthImage(const DepthImage& image, int8_t depth_encoding, i
   msg.depth_encoding = depth_encoding;
   msg.compression = compression;
   std::vector<uint8_t> raw = rawBytes(image, depth_encoding);
-  if (compression == depth_image_t::COMPRESSION_ZSTD) {
-    msg.data.resize(ZSTD_compressBound(raw.size()));
-    const size_t size = ZSTD_compress(msg.data.data(), msg.data.size(), raw.data(), raw.size(), 1);
-    if (ZSTD_isError(size)) throw std::runtime_error(ZSTD_getErrorName(size));
-    msg.data.resize(size);
-  } else {
-    msg.data = std::move(raw);
-  }
+  msg.data = compression == depth_image_t::COMPRESSION_ZSTD ? zstdCompress(raw) : std::move(raw);
   msg.size = static_cast<int32_t>(msg.data.size());
   return msg;
 }
@@ -114,21 +107,9 @@ Expected<DepthImage> decodeDepthImage(const depth_image_t& msg) {
   std::vector<uint8_t> decompressed;
   const uint8_t* raw = msg.data.data();
   if (msg.compression == depth_image_t::COMPRESSION_ZSTD) {
-    const unsigned long long content = ZSTD_getFrameContentSize(msg.data.data(), msg.data.size());
-    if (content != raw_size) {
-      return unexpected("zstd payload holds " +
-                        (content == ZSTD_CONTENTSIZE_ERROR || content == ZSTD_CONTENTSIZE_UNKNOWN
-                             ? std::string("no valid frame")
-                             : std::to_string(content) + " bytes") +
-                        ", expected " + std::to_string(raw_size));
-    }
-    decompressed.resize(raw_size);
-    const size_t size =
-        ZSTD_decompress(decompressed.data(), raw_size, msg.data.data(), msg.data.size());
-    if (ZSTD_isError(size) || size != raw_size) {
-      return unexpected(std::string("zstd payload does not decompress: ") +
-                        (ZSTD_isError(size) ? ZSTD_getErrorName(size) : "short"));
-    }
+    auto content = zstdDecompress(msg.data, raw_size);
+    if (!content) return unexpected(content.error());
+    decompressed = std::move(*content);
     raw = decompressed.data();
   } else if (msg.compression == depth_image_t::COMPRESSION_NONE) {
     if (msg.data.size() != raw_size) {

@@ -1,0 +1,164 @@
+// The voxel map (DESIGN §1): layers of 16^3-voxel blocks in a hash map, allocated where
+// something was observed. A TSDF layer is what the mapper integrates depth into; an ESDF layer is
+// what the planner and the explorer query. Voxel (i, j, k) covers [i, i+1) x [j, j+1) x [k, k+1)
+// times the voxel size, its centre at (i + 0.5, j + 0.5, k + 0.5) times the voxel size; block
+// (a, b, c) holds voxels 16a .. 16a + 15 along x, and so on.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace thicket {
+
+constexpr int kVoxelsPerSide = 16;
+constexpr int kVoxelsPerBlock = kVoxelsPerSide * kVoxelsPerSide * kVoxelsPerSide;
+
+using BlockIndex = Eigen::Vector3i;
+using VoxelIndex = Eigen::Vector3i;  // global: the voxel's integer coordinates in the world
+
+struct IndexHash {
+  size_t operator()(const Eigen::Vector3i& i) const {
+    // Large odd multipliers spread neighbouring indices over the buckets.
+    return static_cast<size_t>(static_cast<int64_t>(i.x()) * 73856093 ^
+                               static_cast<int64_t>(i.y()) * 19349669 ^
+                               static_cast<int64_t>(i.z()) * 83492791);
+  }
+};
+
+/// Orders indices lexicographically (x, then y, then z): for deterministic iteration.
+inline bool indexLess(const Eigen::Vector3i& a, const Eigen::Vector3i& b) {
+  return a.x() != b.x() ? a.x() < b.x() : a.y() != b.y() ? a.y() < b.y() : a.z() < b.z();
+}
+
+/// The block holding a voxel.
+inline BlockIndex blockOfVoxel(const VoxelIndex& v) {
+  // Arithmetic shift floors for negative indices too.
+  return {v.x() >> 4, v.y() >> 4, v.z() >> 4};
+}
+
+/// A voxel's position in its block's array: x fastest, then y, then z.
+inline int linearIndexInBlock(const VoxelIndex& v) {
+  return (v.x() & 15) + 16 * (v.y() & 15) + 256 * (v.z() & 15);
+}
+
+/// The global index of voxel `linear` of a block.
+inline VoxelIndex voxelOfBlock(const BlockIndex& b, int linear) {
+  return {16 * b.x() + (linear & 15), 16 * b.y() + ((linear >> 4) & 15),
+          16 * b.z() + (linear >> 8)};
+}
+
+/// Truncated signed distance: distance to the nearest surface along the viewing rays [m],
+/// positive in front of it (free), negative behind; weight 0 means never observed.
+struct TsdfVoxel {
+  float distance = 0;
+  float weight = 0;
+};
+
+/// Euclidean signed distance [m] to the nearest occupied voxel, capped at the ESDF's maximum
+/// distance. observed: the TSDF saw it (or the unknown-space policy decided it); fixed: its
+/// distance comes from the TSDF (near a surface) or from the policy, not from propagation.
+struct EsdfVoxel {
+  float distance = 0;
+  bool observed = false;
+  bool fixed = false;
+};
+
+template <class Voxel>
+struct Block {
+  explicit Block(const BlockIndex& block_index) : index(block_index) {}
+  BlockIndex index;
+  std::array<Voxel, kVoxelsPerBlock> voxels{};
+};
+
+/// A sparse voxel grid: blocks allocated on demand, found by index in O(1).
+template <class Voxel>
+class Layer {
+ public:
+  using BlockType = Block<Voxel>;
+
+  /// Throws std::invalid_argument unless voxel_size is positive and finite.
+  explicit Layer(double voxel_size) : voxel_size_(voxel_size) {
+    if (!(voxel_size > 0 && std::isfinite(voxel_size))) {
+      throw std::invalid_argument("Layer: the voxel size must be positive and finite");
+    }
+  }
+
+  double voxelSize() const { return voxel_size_; }
+  double blockSize() const { return voxel_size_ * kVoxelsPerSide; }
+
+  /// The voxel containing point p (p finite).
+  VoxelIndex voxelIndex(const Eigen::Vector3d& p) const {
+    const Eigen::Vector3d scaled = p / voxel_size_;
+    return {static_cast<int>(std::floor(scaled.x())), static_cast<int>(std::floor(scaled.y())),
+            static_cast<int>(std::floor(scaled.z()))};
+  }
+  Eigen::Vector3d voxelCenter(const VoxelIndex& v) const {
+    return (v.cast<double>().array() + 0.5).matrix() * voxel_size_;
+  }
+  BlockIndex blockIndex(const Eigen::Vector3d& p) const { return blockOfVoxel(voxelIndex(p)); }
+
+  const BlockType* block(const BlockIndex& b) const {
+    const auto it = blocks_.find(b);
+    return it == blocks_.end() ? nullptr : it->second.get();
+  }
+  BlockType* block(const BlockIndex& b) {
+    const auto it = blocks_.find(b);
+    return it == blocks_.end() ? nullptr : it->second.get();
+  }
+  /// The block, allocated (all voxels default) if it did not exist.
+  BlockType& allocateBlock(const BlockIndex& b) {
+    std::unique_ptr<BlockType>& slot = blocks_[b];
+    if (!slot) slot = std::make_unique<BlockType>(b);
+    return *slot;
+  }
+  /// Adds a whole block, replacing any block at its index.
+  void insertBlock(std::unique_ptr<BlockType> block) {
+    const BlockIndex index = block->index;
+    blocks_[index] = std::move(block);
+  }
+  bool removeBlock(const BlockIndex& b) { return blocks_.erase(b) > 0; }
+  void clear() { blocks_.clear(); }
+
+  /// The voxel, or nullptr when its block is not allocated.
+  const Voxel* voxel(const VoxelIndex& v) const {
+    const BlockType* b = block(blockOfVoxel(v));
+    return b ? &b->voxels[linearIndexInBlock(v)] : nullptr;
+  }
+  Voxel* voxel(const VoxelIndex& v) {
+    BlockType* b = block(blockOfVoxel(v));
+    return b ? &b->voxels[linearIndexInBlock(v)] : nullptr;
+  }
+  Voxel& allocateVoxel(const VoxelIndex& v) {
+    return allocateBlock(blockOfVoxel(v)).voxels[linearIndexInBlock(v)];
+  }
+
+  size_t numBlocks() const { return blocks_.size(); }
+  /// Bytes of voxel storage (blocks only; the hash map's own overhead is small beside them).
+  size_t memoryBytes() const { return blocks_.size() * sizeof(BlockType); }
+
+  /// Every allocated block's index, sorted (indexLess): iterate these where order matters.
+  std::vector<BlockIndex> blockIndices() const {
+    std::vector<BlockIndex> indices;
+    indices.reserve(blocks_.size());
+    for (const auto& [index, block] : blocks_) indices.push_back(index);
+    std::sort(indices.begin(), indices.end(), indexLess);
+    return indices;
+  }
+
+ private:
+  double voxel_size_;
+  std::unordered_map<BlockIndex, std::unique_ptr<BlockType>, IndexHash> blocks_;
+};
+
+using TsdfLayer = Layer<TsdfVoxel>;
+using EsdfLayer = Layer<EsdfVoxel>;
+
+}  // namespace thicket

@@ -1,0 +1,37 @@
+#include "thicket/common/compression.h"
+
+#include <stdexcept>
+#include <string>
+
+#include <zstd.h>
+
+namespace thicket {
+
+std::vector<uint8_t> zstdCompress(std::span<const uint8_t> raw, int level) {
+  std::vector<uint8_t> frame(ZSTD_compressBound(raw.size()));
+  const size_t size = ZSTD_compress(frame.data(), frame.size(), raw.data(), raw.size(), level);
+  if (ZSTD_isError(size)) throw std::runtime_error(ZSTD_getErrorName(size));
+  frame.resize(size);
+  return frame;
+}
+
+Expected<std::vector<uint8_t>> zstdDecompress(std::span<const uint8_t> frame,
+                                              size_t expected_size) {
+  const unsigned long long content = ZSTD_getFrameContentSize(frame.data(), frame.size());
+  if (content != expected_size) {
+    return unexpected("zstd payload holds " +
+                      (content == ZSTD_CONTENTSIZE_ERROR || content == ZSTD_CONTENTSIZE_UNKNOWN
+                           ? std::string("no valid frame")
+                           : std::to_string(content) + " bytes") +
+                      ", expected " + std::to_string(expected_size));
+  }
+  std::vector<uint8_t> raw(expected_size);
+  const size_t size = ZSTD_decompress(raw.data(), raw.size(), frame.data(), frame.size());
+  if (ZSTD_isError(size) || size != expected_size) {
+    return unexpected(std::string("zstd payload does not decompress: ") +
+                      (ZSTD_isError(size) ? ZSTD_getErrorName(size) : "short"));
+  }
+  return raw;
+}
+
+}  // namespace thicket

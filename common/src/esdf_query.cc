@@ -1,0 +1,51 @@
+#include "thicket/common/esdf_query.h"
+
+#include <cmath>
+
+namespace thicket {
+
+EsdfSample sampleEsdf(const EsdfLayer& esdf, const Eigen::Vector3d& p) {
+  if (!p.allFinite()) return {};
+  // The cell between 8 voxel centres: centres sit at (i + 0.5) * voxel_size.
+  const Eigen::Vector3d scaled = p / esdf.voxelSize() - Eigen::Vector3d::Constant(0.5);
+  const Eigen::Vector3d lower = scaled.array().floor();
+  if (!(lower.array().abs() < 1e9).all()) return {};
+  const VoxelIndex base = lower.cast<int>();
+  const Eigen::Vector3d t = scaled - lower;
+  double values[2][2][2];
+  for (int dz = 0; dz < 2; ++dz) {
+    for (int dy = 0; dy < 2; ++dy) {
+      for (int dx = 0; dx < 2; ++dx) {
+        const EsdfVoxel* voxel = esdf.voxel(base + VoxelIndex(dx, dy, dz));
+        if (voxel == nullptr || !voxel->observed) return {};
+        values[dz][dy][dx] = voxel->distance;
+      }
+    }
+  }
+  // Interpolate along x, then y, then z, keeping the partial derivatives of each stage.
+  double along_x[2][2], d_along_x[2][2];
+  for (int dz = 0; dz < 2; ++dz) {
+    for (int dy = 0; dy < 2; ++dy) {
+      const double a = values[dz][dy][0];
+      const double b = values[dz][dy][1];
+      along_x[dz][dy] = a + t.x() * (b - a);
+      d_along_x[dz][dy] = b - a;
+    }
+  }
+  double along_y[2], dx_along_y[2], dy_along_y[2];
+  for (int dz = 0; dz < 2; ++dz) {
+    along_y[dz] = along_x[dz][0] + t.y() * (along_x[dz][1] - along_x[dz][0]);
+    dx_along_y[dz] = d_along_x[dz][0] + t.y() * (d_along_x[dz][1] - d_along_x[dz][0]);
+    dy_along_y[dz] = along_x[dz][1] - along_x[dz][0];
+  }
+  EsdfSample sample;
+  sample.known = true;
+  sample.distance = along_y[0] + t.z() * (along_y[1] - along_y[0]);
+  sample.gradient = Eigen::Vector3d(dx_along_y[0] + t.z() * (dx_along_y[1] - dx_along_y[0]),
+                                    dy_along_y[0] + t.z() * (dy_along_y[1] - dy_along_y[0]),
+                                    along_y[1] - along_y[0]) /
+                    esdf.voxelSize();
+  return sample;
+}
+
+}  // namespace thicket

@@ -1,0 +1,325 @@
+#include "thicket/common/map_update.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <set>
+
+#include "thicket/common/compression.h"
+
+namespace thicket {
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "payloads are little-endian");
+
+constexpr uint8_t kObservedBit = 1;
+constexpr uint8_t kFixedBit = 2;
+// Far more parts than any map needs (a 16^3-block message is at least one block).
+constexpr int32_t kMaxParts = 1 << 20;
+
+void putFloat(uint8_t*& out, float value) {
+  std::memcpy(out, &value, 4);
+  out += 4;
+}
+
+float getFloat(const uint8_t*& in) {
+  float value;
+  std::memcpy(&value, in, 4);
+  in += 4;
+  return value;
+}
+
+void encodeVoxel(const TsdfVoxel& voxel, uint8_t*& out) {
+  putFloat(out, voxel.distance);
+  putFloat(out, voxel.weight);
+}
+
+void encodeVoxel(const EsdfVoxel& voxel, uint8_t*& out) {
+  putFloat(out, voxel.distance);
+  *out++ =
+      static_cast<uint8_t>((voxel.observed ? kObservedBit : 0) | (voxel.fixed ? kFixedBit : 0));
+}
+
+Expected<TsdfVoxel> decodeTsdfVoxel(const uint8_t*& in) {
+  TsdfVoxel voxel;
+  voxel.distance = getFloat(in);
+  voxel.weight = getFloat(in);
+  if (!std::isfinite(voxel.distance) || !(voxel.weight >= 0) || !std::isfinite(voxel.weight)) {
+    return unexpected("a TSDF voxel has a non-finite distance or a bad weight");
+  }
+  return voxel;
+}
+
+Expected<EsdfVoxel> decodeEsdfVoxel(const uint8_t*& in) {
+  EsdfVoxel voxel;
+  voxel.distance = getFloat(in);
+  const uint8_t flags = *in++;
+  if (!std::isfinite(voxel.distance)) return unexpected("an ESDF voxel has a non-finite distance");
+  if ((flags & ~(kObservedBit | kFixedBit)) != 0) {
+    return unexpected("an ESDF voxel has unknown flag bits");
+  }
+  voxel.observed = (flags & kObservedBit) != 0;
+  voxel.fixed = (flags & kFixedBit) != 0;
+  return voxel;
+}
+
+template <class Voxel>
+Expected<Voxel> decodeVoxel(const uint8_t*& in) {
+  if constexpr (std::is_same_v<Voxel, TsdfVoxel>) {
+    return decodeTsdfVoxel(in);
+  } else {
+    return decodeEsdfVoxel(in);
+  }
+}
+
+template <class Voxel>
+map_block_t encodeBlock(const Block<Voxel>& block) {
+  std::vector<uint8_t> raw(kVoxelsPerBlock * VoxelWire<Voxel>::kBytes);
+  uint8_t* out = raw.data();
+  for (const Voxel& voxel : block.voxels) encodeVoxel(voxel, out);
+  map_block_t msg;
+  for (int i = 0; i < 3; ++i) msg.index[i] = block.index[i];
+  msg.compression = map_block_t::COMPRESSION_ZSTD;
+  msg.raw_size = static_cast<int32_t>(raw.size());
+  msg.data = zstdCompress(raw);
+  msg.size = static_cast<int32_t>(msg.data.size());
+  return msg;
+}
+
+template <class Voxel>
+Expected<std::unique_ptr<Block<Voxel>>> decodeBlock(const map_block_t& msg) {
+  const std::string where = "block [" + std::to_string(msg.index[0]) + ", " +
+                            std::to_string(msg.index[1]) + ", " + std::to_string(msg.index[2]) +
+                            "]: ";
+  const size_t raw_size = kVoxelsPerBlock * VoxelWire<Voxel>::kBytes;
+  if (msg.size < 0 || static_cast<size_t>(msg.size) != msg.data.size()) {
+    return unexpected(where + "size field " + std::to_string(msg.size) + " but " +
+                      std::to_string(msg.data.size()) + " bytes of data");
+  }
+  if (msg.raw_size < 0 || static_cast<size_t>(msg.raw_size) != raw_size) {
+    return unexpected(where + "raw size " + std::to_string(msg.raw_size) + ", expected " +
+                      std::to_string(raw_size));
+  }
+  std::vector<uint8_t> decompressed;
+  const uint8_t* in = msg.data.data();
+  if (msg.compression == map_block_t::COMPRESSION_ZSTD) {
+    auto content = zstdDecompress(msg.data, raw_size);
+    if (!content) return unexpected(where + content.error());
+    decompressed = std::move(*content);
+    in = decompressed.data();
+  } else if (msg.compression == map_block_t::COMPRESSION_NONE) {
+    if (msg.data.size() != raw_size) {
+      return unexpected(where + std::to_string(msg.data.size()) + " bytes, expected " +
+                        std::to_string(raw_size));
+    }
+  } else {
+    return unexpected(where + "unknown compression " + std::to_string(msg.compression));
+  }
+  auto block = std::make_unique<Block<Voxel>>(BlockIndex(msg.index[0], msg.index[1], msg.index[2]));
+  for (Voxel& voxel : block->voxels) {
+    auto decoded = decodeVoxel<Voxel>(in);
+    if (!decoded) return unexpected(where + decoded.error());
+    voxel = *decoded;
+  }
+  return block;
+}
+
+map_update_t emptyPart(const MapRevision& revision, int8_t layer, int8_t format,
+                       double voxel_size) {
+  map_update_t msg;
+  msg.utime = revision.utime;
+  msg.map_id = revision.map_id;
+  msg.layer = layer;
+  msg.voxel_format = format;
+  msg.voxel_size = voxel_size;
+  msg.voxels_per_side = kVoxelsPerSide;
+  msg.revision = revision.revision;
+  msg.full_snapshot = revision.full_snapshot;
+  msg.part_index = 0;
+  msg.num_parts = 1;
+  msg.num_blocks = 0;
+  msg.num_removed = 0;
+  return msg;
+}
+
+}  // namespace
+
+template <class Voxel>
+std::vector<map_update_t> encodeMapUpdate(const Layer<Voxel>& layer, const MapRevision& revision,
+                                          const std::vector<BlockIndex>& changed,
+                                          const std::vector<BlockIndex>& removed,
+                                          size_t max_message_bytes) {
+  std::vector<BlockIndex> blocks;
+  if (revision.full_snapshot) {
+    blocks = layer.blockIndices();
+  } else {
+    for (const BlockIndex& index : changed) {
+      if (layer.block(index) != nullptr) blocks.push_back(index);
+    }
+    std::sort(blocks.begin(), blocks.end(), indexLess);
+    blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
+  }
+  const map_update_t empty =
+      emptyPart(revision, VoxelWire<Voxel>::kLayer, VoxelWire<Voxel>::kFormat, layer.voxelSize());
+  std::vector<map_update_t> parts = {empty};
+  size_t part_bytes = 0;
+  for (const BlockIndex& index : blocks) {
+    map_block_t block = encodeBlock(*layer.block(index));
+    if (part_bytes > 0 && part_bytes + block.data.size() > max_message_bytes) {
+      parts.push_back(empty);
+      part_bytes = 0;
+    }
+    part_bytes += block.data.size();
+    parts.back().blocks.push_back(std::move(block));
+  }
+  if (!revision.full_snapshot) {
+    for (const BlockIndex& index : removed) {
+      parts.back().removed.push_back({index.x(), index.y(), index.z()});
+    }
+  }
+  for (size_t i = 0; i < parts.size(); ++i) {
+    parts[i].part_index = static_cast<int32_t>(i);
+    parts[i].num_parts = static_cast<int32_t>(parts.size());
+    parts[i].num_blocks = static_cast<int32_t>(parts[i].blocks.size());
+    parts[i].num_removed = static_cast<int32_t>(parts[i].removed.size());
+  }
+  return parts;
+}
+
+template <class Voxel>
+Expected<MapUpdatePart<Voxel>> decodeMapUpdate(const map_update_t& msg) {
+  if (msg.layer != VoxelWire<Voxel>::kLayer) {
+    return unexpected("layer " + std::to_string(msg.layer) + " where " +
+                      std::to_string(VoxelWire<Voxel>::kLayer) + " was expected");
+  }
+  if (msg.voxel_format != VoxelWire<Voxel>::kFormat) {
+    return unexpected("voxel format " + std::to_string(msg.voxel_format) + " where " +
+                      std::to_string(VoxelWire<Voxel>::kFormat) + " was expected");
+  }
+  if (msg.voxels_per_side != kVoxelsPerSide) {
+    return unexpected(std::to_string(msg.voxels_per_side) + " voxels per side, expected " +
+                      std::to_string(kVoxelsPerSide));
+  }
+  if (!(msg.voxel_size > 0 && std::isfinite(msg.voxel_size))) {
+    return unexpected("voxel size " + std::to_string(msg.voxel_size) + " is not positive");
+  }
+  if (msg.num_parts < 1 || msg.num_parts > kMaxParts || msg.part_index < 0 ||
+      msg.part_index >= msg.num_parts) {
+    return unexpected("part " + std::to_string(msg.part_index) + " of " +
+                      std::to_string(msg.num_parts) + " is not possible");
+  }
+  if (msg.revision < 0) return unexpected("negative revision " + std::to_string(msg.revision));
+  if (msg.num_blocks < 0 || static_cast<size_t>(msg.num_blocks) != msg.blocks.size() ||
+      msg.num_removed < 0 || static_cast<size_t>(msg.num_removed) != msg.removed.size()) {
+    return unexpected("block counts disagree with the arrays");
+  }
+  MapUpdatePart<Voxel> part;
+  part.revision = {msg.utime, msg.map_id, msg.revision, msg.full_snapshot != 0};
+  part.voxel_size = msg.voxel_size;
+  part.part_index = msg.part_index;
+  part.num_parts = msg.num_parts;
+  std::set<std::array<int32_t, 3>> seen;
+  for (const map_block_t& block_msg : msg.blocks) {
+    if (!seen.insert({block_msg.index[0], block_msg.index[1], block_msg.index[2]}).second) {
+      return unexpected("a block appears twice");
+    }
+    auto block = decodeBlock<Voxel>(block_msg);
+    if (!block) return unexpected(block.error());
+    part.blocks.push_back(std::move(*block));
+  }
+  for (const auto& index : msg.removed) part.removed.emplace_back(index[0], index[1], index[2]);
+  return part;
+}
+
+template <class Voxel>
+typename MapMirror<Voxel>::Result MapMirror<Voxel>::apply(const map_update_t& msg) {
+  auto decoded = decodeMapUpdate<Voxel>(msg);
+  if (!decoded) return {Outcome::kRefused, decoded.error()};
+  MapUpdatePart<Voxel>& part = *decoded;
+  const MapRevision& r = part.revision;
+  if (!r.full_snapshot) {
+    if (!layer_) return needSnapshot("no map yet");
+    if (r.map_id != map_id_) return needSnapshot("a new map id " + std::to_string(r.map_id));
+    if (r.revision <= revision_) {
+      return {Outcome::kIgnored, "revision " + std::to_string(r.revision) + " is not newer than " +
+                                     std::to_string(revision_)};
+    }
+    if (r.revision != revision_ + 1) {
+      return needSnapshot("gap after revision " + std::to_string(revision_));
+    }
+    if (part.voxel_size != layer_->voxelSize()) return needSnapshot("the voxel size changed");
+  }
+  // A part of another revision means the one being received lost a part: drop it. A lost delta
+  // shows up as a gap when the next one arrives.
+  if (header_ &&
+      (header_->revision.map_id != r.map_id || header_->revision.revision != r.revision ||
+       header_->revision.full_snapshot != r.full_snapshot || header_->num_parts != part.num_parts ||
+       header_->voxel_size != part.voxel_size)) {
+    header_.reset();
+    parts_.clear();
+  }
+  if (parts_.count(part.part_index) > 0) {
+    return {Outcome::kIgnored, "part " + std::to_string(part.part_index) + " arrived twice"};
+  }
+  if (!header_) {
+    header_.emplace();
+    header_->revision = r;
+    header_->voxel_size = part.voxel_size;
+    header_->num_parts = part.num_parts;
+  }
+  const int index = part.part_index;
+  parts_.emplace(index, std::move(part));
+  if (static_cast<int>(parts_.size()) < header_->num_parts) return {Outcome::kPartial, ""};
+  return applyComplete();
+}
+
+template <class Voxel>
+typename MapMirror<Voxel>::Result MapMirror<Voxel>::applyComplete() {
+  const MapRevision r = header_->revision;
+  if (r.full_snapshot) layer_ = std::make_unique<Layer<Voxel>>(header_->voxel_size);
+  for (auto& [index, part] : parts_) {
+    for (std::unique_ptr<Block<Voxel>>& block : part.blocks) layer_->insertBlock(std::move(block));
+    for (const BlockIndex& removed : part.removed) layer_->removeBlock(removed);
+  }
+  header_.reset();
+  parts_.clear();
+  map_id_ = r.map_id;
+  revision_ = r.revision;
+  utime_ = r.utime;
+  needs_snapshot_ = false;
+  snapshot_reason_.clear();
+  return {Outcome::kApplied, ""};
+}
+
+template <class Voxel>
+typename MapMirror<Voxel>::Result MapMirror<Voxel>::needSnapshot(const std::string& reason) {
+  needs_snapshot_ = true;
+  snapshot_reason_ = reason;
+  return {Outcome::kNeedSnapshot, reason};
+}
+
+template <class Voxel>
+map_request_t MapMirror<Voxel>::request(int64_t utime, const std::string& requester) const {
+  map_request_t msg;
+  msg.utime = utime;
+  msg.requester = requester;
+  msg.layer = VoxelWire<Voxel>::kLayer;
+  msg.map_id = map_id_;
+  msg.last_revision = revision();
+  msg.reason = snapshot_reason_;
+  return msg;
+}
+
+template std::vector<map_update_t> encodeMapUpdate(const Layer<TsdfVoxel>&, const MapRevision&,
+                                                   const std::vector<BlockIndex>&,
+                                                   const std::vector<BlockIndex>&, size_t);
+template std::vector<map_update_t> encodeMapUpdate(const Layer<EsdfVoxel>&, const MapRevision&,
+                                                   const std::vector<BlockIndex>&,
+                                                   const std::vector<BlockIndex>&, size_t);
+template Expected<MapUpdatePart<TsdfVoxel>> decodeMapUpdate(const map_update_t&);
+template Expected<MapUpdatePart<EsdfVoxel>> decodeMapUpdate(const map_update_t&);
+template class MapMirror<TsdfVoxel>;
+template class MapMirror<EsdfVoxel>;
+
+}  // namespace thicket

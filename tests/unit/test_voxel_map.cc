@@ -1,0 +1,284 @@
+// The voxel map core: indexing, ESDF queries against analytic fields, serialization and the
+// mirror's revision logic.
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "thicket/common/esdf_query.h"
+#include "thicket/common/map_update.h"
+#include "thicket/common/voxel_layer.h"
+
+namespace thicket {
+namespace {
+
+TEST(VoxelLayer, IndexesVoxelsAndBlocksAcrossTheOrigin) {
+  TsdfLayer layer(0.2);
+  EXPECT_DOUBLE_EQ(layer.blockSize(), 3.2);
+  EXPECT_EQ(layer.voxelIndex({0.1, -0.1, 3.3}), VoxelIndex(0, -1, 16));
+  EXPECT_EQ(layer.blockIndex({0.1, -0.1, 3.3}), BlockIndex(0, -1, 1));
+  EXPECT_EQ(blockOfVoxel({-16, -17, 15}), BlockIndex(-1, -2, 0));
+  EXPECT_LT((layer.voxelCenter({-1, 0, 2}) - Eigen::Vector3d(-0.1, 0.1, 0.5)).norm(), 1e-12);
+  std::mt19937_64 rng(1);
+  std::uniform_int_distribution<int> coordinate(-1000, 1000);
+  for (int i = 0; i < 1000; ++i) {
+    const VoxelIndex v(coordinate(rng), coordinate(rng), coordinate(rng));
+    EXPECT_EQ(voxelOfBlock(blockOfVoxel(v), linearIndexInBlock(v)), v);
+    EXPECT_EQ(layer.voxelIndex(layer.voxelCenter(v)), v);
+  }
+  EXPECT_EQ(layer.voxel({5, 5, 5}), nullptr);
+  layer.allocateVoxel({5, 5, 5}).weight = 2;
+  ASSERT_NE(layer.voxel({5, 5, 5}), nullptr);
+  EXPECT_EQ(layer.voxel({5, 5, 5})->weight, 2);
+  EXPECT_EQ(layer.voxel({5, 5, 6})->weight, 0);
+  EXPECT_EQ(layer.numBlocks(), 1u);
+  EXPECT_EQ(layer.memoryBytes(), sizeof(Block<TsdfVoxel>));
+  layer.allocateBlock({-1, 0, 0});
+  EXPECT_EQ(layer.blockIndices(), (std::vector<BlockIndex>{{-1, 0, 0}, {0, 0, 0}}));
+  EXPECT_TRUE(layer.removeBlock({0, 0, 0}));
+  EXPECT_FALSE(layer.removeBlock({0, 0, 0}));
+  EXPECT_THROW(TsdfLayer(0), std::invalid_argument);
+  EXPECT_THROW(TsdfLayer(NAN), std::invalid_argument);
+}
+
+// An ESDF whose voxels hold an analytic field over a box of voxels, all observed.
+EsdfLayer fieldLayer(double voxel_size, const std::function<double(const Eigen::Vector3d&)>& f) {
+  EsdfLayer layer(voxel_size);
+  for (int x = -20; x < 20; ++x) {
+    for (int y = -20; y < 20; ++y) {
+      for (int z = -5; z < 20; ++z) {
+        EsdfVoxel& voxel = layer.allocateVoxel({x, y, z});
+        voxel.distance = static_cast<float>(f(layer.voxelCenter({x, y, z})));
+        voxel.observed = true;
+      }
+    }
+  }
+  return layer;
+}
+
+TEST(EsdfQuery, TrilinearIsExactOnLinearFieldsAndGradientsMatchFiniteDifferences) {
+  const auto linear = [](const Eigen::Vector3d& p) {
+    return 0.3 * p.x() - 0.5 * p.y() + p.z() + 1;
+  };
+  const EsdfLayer layer = fieldLayer(0.2, linear);
+  std::mt19937_64 rng(2);
+  std::uniform_real_distribution<double> u(-3.5, 3.5);
+  for (int i = 0; i < 500; ++i) {
+    const Eigen::Vector3d p(u(rng), u(rng), std::abs(u(rng)));
+    const EsdfSample sample = sampleEsdf(layer, p);
+    ASSERT_TRUE(sample.known);
+    EXPECT_NEAR(sample.distance, linear(p), 1e-5);
+    EXPECT_LT((sample.gradient - Eigen::Vector3d(0.3, -0.5, 1)).norm(), 1e-5);
+  }
+  // A curved field: the gradient is the derivative of the interpolant (finite differences
+  // inside one cell), and close to the field's own.
+  const auto sphere = [](const Eigen::Vector3d& p) {
+    return (p - Eigen::Vector3d(0.3, 0.1, 1)).norm() - 0.5;
+  };
+  const EsdfLayer curved = fieldLayer(0.1, sphere);
+  for (int i = 0; i < 500; ++i) {
+    const Eigen::Vector3d p(0.8 * u(rng) / 3.5, 0.8 * u(rng) / 3.5, 1 + 0.5 * u(rng) / 3.5);
+    const EsdfSample sample = sampleEsdf(curved, p);
+    ASSERT_TRUE(sample.known);
+    const double h = 1e-6;
+    for (int axis = 0; axis < 3; ++axis) {
+      Eigen::Vector3d step = Eigen::Vector3d::Zero();
+      step[axis] = h;
+      const double numeric =
+          (sampleEsdf(curved, p + step).distance - sampleEsdf(curved, p - step).distance) / (2 * h);
+      EXPECT_NEAR(sample.gradient[axis], numeric, 1e-3) << p.transpose();
+    }
+    EXPECT_NEAR(sample.distance, sphere(p), 0.02);
+  }
+}
+
+TEST(EsdfQuery, AnyUnobservedOrMissingCornerIsUnknown) {
+  EsdfLayer layer = fieldLayer(0.2, [](const Eigen::Vector3d&) { return 1.0; });
+  const Eigen::Vector3d p(0.25, 0.25, 0.25);  // between voxels 0 and 1 on each axis
+  EXPECT_TRUE(sampleEsdf(layer, p).known);
+  layer.voxel({1, 1, 1})->observed = false;
+  const EsdfSample sample = sampleEsdf(layer, p);
+  EXPECT_FALSE(sample.known);
+  EXPECT_EQ(sample.distance, 0);
+  EXPECT_FALSE(sampleEsdf(layer, {100, 0, 0}).known);  // no block there
+  EXPECT_FALSE(sampleEsdf(layer, {NAN, 0, 0}).known);
+  EXPECT_FALSE(sampleEsdf(layer, {1e300, 0, 0}).known);
+}
+
+TsdfLayer randomTsdf(uint64_t seed, int blocks) {
+  TsdfLayer layer(0.1);
+  std::mt19937_64 rng(seed);
+  std::uniform_int_distribution<int> index(-4, 4);
+  std::uniform_real_distribution<float> distance(-0.4f, 0.4f), weight(0, 50);
+  for (int b = 0; b < blocks; ++b) {
+    Block<TsdfVoxel>& block = layer.allocateBlock({index(rng), index(rng), index(rng)});
+    for (TsdfVoxel& voxel : block.voxels) voxel = {distance(rng), weight(rng)};
+  }
+  return layer;
+}
+
+template <class Voxel>
+void expectSameLayers(const Layer<Voxel>& a, const Layer<Voxel>& b) {
+  ASSERT_EQ(a.voxelSize(), b.voxelSize());
+  ASSERT_EQ(a.blockIndices(), b.blockIndices());
+  for (const BlockIndex& index : a.blockIndices()) {
+    ASSERT_EQ(std::memcmp(a.block(index)->voxels.data(), b.block(index)->voxels.data(),
+                          sizeof(a.block(index)->voxels)),
+              0);
+  }
+}
+
+TEST(MapUpdate, SnapshotsRoundTripInPartsUnderTheSizeLimit) {
+  const TsdfLayer layer = randomTsdf(3, 60);  // random voxels barely compress: many parts
+  const std::vector<map_update_t> parts =
+      encodeMapUpdate(layer, {5, 7, 12, true}, {}, {}, 200 * 1024);
+  ASSERT_GT(parts.size(), 3u);
+  MapMirror<TsdfVoxel> mirror;
+  for (size_t i = 0; i < parts.size(); ++i) {
+    EXPECT_LE(parts[i].getEncodedSize(), 200 * 1024 + 40 * 1024);
+    EXPECT_EQ(parts[i].num_parts, static_cast<int>(parts.size()));
+    const auto result = mirror.apply(parts[i]);
+    EXPECT_EQ(result.outcome, i + 1 < parts.size() ? MapMirror<TsdfVoxel>::Outcome::kPartial
+                                                   : MapMirror<TsdfVoxel>::Outcome::kApplied)
+        << result.reason;
+  }
+  ASSERT_NE(mirror.layer(), nullptr);
+  expectSameLayers(*mirror.layer(), layer);
+  EXPECT_EQ(mirror.revision(), 12);
+  EXPECT_EQ(mirror.mapId(), 7);
+  EXPECT_EQ(mirror.utime(), 5);
+  EXPECT_FALSE(mirror.needsSnapshot());
+}
+
+TEST(MapUpdate, EsdfVoxelsKeepTheirFlags) {
+  EsdfLayer layer(0.2);
+  Block<EsdfVoxel>& block = layer.allocateBlock({1, -2, 0});
+  for (int i = 0; i < kVoxelsPerBlock; ++i) {
+    block.voxels[i] = {static_cast<float>(i) * 0.001f - 2, i % 3 == 0, i % 5 == 0};
+  }
+  MapMirror<EsdfVoxel> mirror;
+  for (const map_update_t& part : encodeMapUpdate(layer, {1, 1, 0, true}, {}, {})) {
+    mirror.apply(part);
+  }
+  ASSERT_NE(mirror.layer(), nullptr);
+  for (int i = 0; i < kVoxelsPerBlock; ++i) {
+    const EsdfVoxel& voxel = mirror.layer()->block({1, -2, 0})->voxels[i];
+    EXPECT_EQ(voxel.distance, block.voxels[i].distance);
+    EXPECT_EQ(voxel.observed, block.voxels[i].observed);
+    EXPECT_EQ(voxel.fixed, block.voxels[i].fixed);
+  }
+}
+
+TEST(MapMirror, AppliesDeltasInOrderAndHealsGapsWithASnapshot) {
+  using Outcome = MapMirror<TsdfVoxel>::Outcome;
+  TsdfLayer mapper = randomTsdf(4, 5);
+  MapMirror<TsdfVoxel> mirror;
+  // Deltas before any snapshot cannot apply.
+  const auto delta = [&](int64_t revision, const std::vector<BlockIndex>& changed,
+                         const std::vector<BlockIndex>& removed = {}) {
+    return encodeMapUpdate(mapper, {revision * 10, 1, revision, false}, changed, removed);
+  };
+  EXPECT_EQ(mirror.apply(delta(1, {})[0]).outcome, Outcome::kNeedSnapshot);
+  EXPECT_TRUE(mirror.needsSnapshot());
+  EXPECT_EQ(mirror.request(0, "test").last_revision, -1);
+  for (const auto& part : encodeMapUpdate(mapper, {10, 1, 1, true}, {}, {})) mirror.apply(part);
+  expectSameLayers(*mirror.layer(), mapper);
+
+  // Revision 2 changes a block and adds one; revision 3 removes one.
+  mapper.allocateBlock({9, 9, 9}).voxels[7] = {0.05f, 3};
+  const BlockIndex first = mapper.blockIndices()[0];
+  mapper.block(first)->voxels[0] = {-0.1f, 1};
+  EXPECT_EQ(mirror.apply(delta(2, {{9, 9, 9}, first})[0]).outcome, Outcome::kApplied);
+  expectSameLayers(*mirror.layer(), mapper);
+  mapper.removeBlock(first);
+  EXPECT_EQ(mirror.apply(delta(3, {}, {first})[0]).outcome, Outcome::kApplied);
+  expectSameLayers(*mirror.layer(), mapper);
+  EXPECT_EQ(mirror.apply(delta(3, {})[0]).outcome, Outcome::kIgnored);  // a duplicate
+
+  // Revision 4 is lost: 5 is a gap, and the mirror keeps revision 3 until a snapshot.
+  mapper.allocateBlock({-9, 0, 0});
+  const auto lost = delta(4, {{-9, 0, 0}});
+  const auto result = mirror.apply(delta(5, {})[0]);
+  EXPECT_EQ(result.outcome, Outcome::kNeedSnapshot);
+  EXPECT_EQ(result.reason, "gap after revision 3");
+  const map_request_t request = mirror.request(55, "planner");
+  EXPECT_EQ(request.last_revision, 3);
+  EXPECT_EQ(request.map_id, 1);
+  EXPECT_EQ(request.layer, +map_update_t::LAYER_TSDF);
+  EXPECT_EQ(request.reason, "gap after revision 3");
+  EXPECT_EQ(mirror.revision(), 3);
+  for (const auto& part : encodeMapUpdate(mapper, {50, 1, 5, true}, {}, {})) mirror.apply(part);
+  expectSameLayers(*mirror.layer(), mapper);
+  EXPECT_EQ(mirror.apply(delta(6, {})[0]).outcome, Outcome::kApplied);
+
+  // A restarted mapper (new map id) needs a snapshot too, even at the next revision number.
+  const auto restarted = encodeMapUpdate(mapper, {70, 2, 7, false}, {}, {});
+  EXPECT_EQ(mirror.apply(restarted[0]).outcome, Outcome::kNeedSnapshot);
+}
+
+TEST(MapMirror, ALostPartDropsTheRevision) {
+  using Outcome = MapMirror<TsdfVoxel>::Outcome;
+  const TsdfLayer big = randomTsdf(5, 40);
+  MapMirror<TsdfVoxel> mirror;
+  const auto snapshot = encodeMapUpdate(big, {1, 1, 1, true}, {}, {}, 100 * 1024);
+  ASSERT_GT(snapshot.size(), 2u);
+  for (size_t i = 0; i + 1 < snapshot.size(); ++i) mirror.apply(snapshot[i]);  // last one lost
+  EXPECT_EQ(mirror.layer(), nullptr);
+  EXPECT_EQ(mirror.apply(snapshot[0]).outcome, Outcome::kIgnored);  // stored already
+  // The next snapshot replaces the incomplete one and applies.
+  const auto next = encodeMapUpdate(big, {2, 1, 2, true}, {}, {}, 100 * 1024);
+  Outcome last = Outcome::kRefused;
+  for (const auto& part : next) last = mirror.apply(part).outcome;
+  EXPECT_EQ(last, Outcome::kApplied);
+  expectSameLayers(*mirror.layer(), big);
+}
+
+TEST(MapMirror, RefusesMalformedMessagesWithoutChangingTheMap) {
+  using Outcome = MapMirror<TsdfVoxel>::Outcome;
+  const TsdfLayer layer = randomTsdf(6, 2);
+  MapMirror<TsdfVoxel> mirror;
+  for (const auto& part : encodeMapUpdate(layer, {1, 1, 1, true}, {}, {})) mirror.apply(part);
+  const map_update_t good = encodeMapUpdate(layer, {2, 1, 2, false}, layer.blockIndices(), {})[0];
+  const auto refused = [&](const std::function<void(map_update_t&)>& corrupt) {
+    map_update_t msg = good;
+    corrupt(msg);
+    const auto result = mirror.apply(msg);
+    EXPECT_FALSE(result.reason.empty());
+    return result.outcome == Outcome::kRefused;
+  };
+  EXPECT_TRUE(refused([](map_update_t& m) { m.layer = map_update_t::LAYER_ESDF; }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.voxel_format = 7; }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.voxels_per_side = 8; }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.voxel_size = NAN; }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.part_index = 1; }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.num_blocks = 5; }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.blocks[0].compression = 9; }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.blocks[0].data[3] ^= 0xff; }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.blocks[0].raw_size = 100; }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.blocks[0].size = 1; }));
+  EXPECT_TRUE(refused([](map_update_t& m) {
+    m.blocks.push_back(m.blocks[0]);
+    ++m.num_blocks;
+  }));
+  EXPECT_TRUE(refused([](map_update_t& m) {  // a NaN distance, uncompressed
+    std::vector<uint8_t> raw(kVoxelsPerBlock * 8, 0);
+    const float nan = NAN;
+    std::memcpy(raw.data(), &nan, 4);
+    m.blocks[0].compression = map_block_t::COMPRESSION_NONE;
+    m.blocks[0].data = raw;
+    m.blocks[0].size = static_cast<int32_t>(raw.size());
+  }));
+  EXPECT_TRUE(refused([](map_update_t& m) {  // a negative weight
+    std::vector<uint8_t> raw(kVoxelsPerBlock * 8, 0);
+    const float negative = -1;
+    std::memcpy(raw.data() + 4, &negative, 4);
+    m.blocks[0].compression = map_block_t::COMPRESSION_NONE;
+    m.blocks[0].data = raw;
+    m.blocks[0].size = static_cast<int32_t>(raw.size());
+  }));
+  expectSameLayers(*mirror.layer(), layer);
+  EXPECT_EQ(mirror.apply(good).outcome, Outcome::kApplied);
+}
+
+}  // namespace
+}  // namespace thicket
