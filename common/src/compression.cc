@@ -1,5 +1,6 @@
 #include "thicket/common/compression.h"
 
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -8,8 +9,16 @@
 namespace thicket {
 
 std::vector<uint8_t> zstdCompress(std::span<const uint8_t> raw, int level) {
+  // The frame carries a checksum of its content, so that decompression catches corruption
+  // (a flipped byte in a map file) instead of returning wrong voxels.
+  const std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> context(ZSTD_createCCtx(),
+                                                                   ZSTD_freeCCtx);
+  if (!context) throw std::runtime_error("zstd: out of memory");
+  ZSTD_CCtx_setParameter(context.get(), ZSTD_c_compressionLevel, level);
+  ZSTD_CCtx_setParameter(context.get(), ZSTD_c_checksumFlag, 1);
   std::vector<uint8_t> frame(ZSTD_compressBound(raw.size()));
-  const size_t size = ZSTD_compress(frame.data(), frame.size(), raw.data(), raw.size(), level);
+  const size_t size =
+      ZSTD_compress2(context.get(), frame.data(), frame.size(), raw.data(), raw.size());
   if (ZSTD_isError(size)) throw std::runtime_error(ZSTD_getErrorName(size));
   frame.resize(size);
   return frame;

@@ -4,16 +4,13 @@
 
 #include <benchmark/benchmark.h>
 
+#include "bench_worlds.h"
 #include "thicket/sim/ground_truth.h"
 
 namespace thicket::sim {
 namespace {
 
-World forest50(uint64_t seed) {
-  auto spec = loadScenario("forest50", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
-  if (!spec) throw std::runtime_error(spec.error());
-  return *generateWorld(*spec, 0.2, seed);
-}
+using bench::forest50;
 
 void BM_GroundTruthDistance(benchmark::State& state) {
   const World world = forest50(1);

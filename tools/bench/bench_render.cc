@@ -7,7 +7,7 @@
 
 #include <benchmark/benchmark.h>
 
-#include "thicket/sim/ground_truth.h"
+#include "bench_worlds.h"
 #include "thicket/sim/render.h"
 
 namespace thicket::sim {
@@ -15,30 +15,10 @@ namespace {
 
 constexpr int kPoses = 16;
 
-const World& forest() {
-  static const World world = [] {
-    auto spec = loadScenario("forest50", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
-    if (!spec) throw std::runtime_error(spec.error());
-    return *generateWorld(*spec, 0.2, 1);
-  }();
-  return world;
-}
+using bench::forest;
 
-// Poses along the start-goal diagonal at 1.5 m, facing the goal, clear of every tree.
 Pose benchPose(int i) {
-  static const std::vector<Pose> poses = [] {
-    const World& world = forest();
-    const GroundTruth truth(world);
-    const Eigen::Vector3d direction = (world.goal - world.start).normalized();
-    std::vector<Pose> result;
-    for (double s = 2.0; result.size() < kPoses; s += 2.0) {
-      const Eigen::Vector3d p = world.start + s * direction;
-      if (truth.distance(p) > world.robot_radius) {
-        result.push_back(Pose::fromYaw(p, std::atan2(direction.y(), direction.x())));
-      }
-    }
-    return result;
-  }();
+  static const std::vector<Pose> poses = bench::flightPoses(2.0, kPoses);
   return poses[static_cast<size_t>(i % kPoses)];
 }
 

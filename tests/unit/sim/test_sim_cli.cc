@@ -12,6 +12,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "cli.h"
 #include "sim_node.h"
 #include "thicket/sim/render.h"
 #include "thicket/sim/world.h"
@@ -19,19 +20,10 @@
 namespace thicket::sim {
 namespace {
 
-struct CliResult {
-  int status;
-  std::string output;
-};
+using thicket::testing::CliResult;
 
 CliResult run(const std::string& args) {
-  const std::string command = std::string(THICKET_SIM) + " " + args + " 2>&1";
-  FILE* pipe = ::popen(command.c_str(), "r");
-  std::string output;
-  char buffer[4096];
-  while (size_t n = std::fread(buffer, 1, sizeof(buffer), pipe)) output.append(buffer, n);
-  const int status = ::pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
+  return thicket::testing::runCommand(std::string(THICKET_SIM) + " " + args);
 }
 
 // A parameter file for one test, removed when the test ends.

@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <stdexcept>
 #include <unordered_map>
@@ -91,6 +92,19 @@ class Layer {
     }
   }
 
+  /// Copies are deep (every block).
+  Layer(const Layer& other) : voxel_size_(other.voxel_size_) {
+    for (const auto& [index, block] : other.blocks_) {
+      blocks_.emplace(index, std::make_unique<BlockType>(*block));
+    }
+  }
+  Layer& operator=(const Layer& other) {
+    if (this != &other) *this = Layer(other);
+    return *this;
+  }
+  Layer(Layer&&) noexcept = default;
+  Layer& operator=(Layer&&) noexcept = default;
+
   double voxelSize() const { return voxel_size_; }
   double blockSize() const { return voxel_size_ * kVoxelsPerSide; }
 
@@ -157,6 +171,20 @@ class Layer {
   double voxel_size_;
   std::unordered_map<BlockIndex, std::unique_ptr<BlockType>, IndexHash> blocks_;
 };
+
+/// Whether two layers have the same voxel size, the same blocks and byte-identical voxels: what
+/// determinism and round-trip checks compare.
+template <class Voxel>
+bool identicalLayers(const Layer<Voxel>& a, const Layer<Voxel>& b) {
+  if (a.voxelSize() != b.voxelSize() || a.blockIndices() != b.blockIndices()) return false;
+  for (const BlockIndex& index : a.blockIndices()) {
+    if (std::memcmp(a.block(index)->voxels.data(), b.block(index)->voxels.data(),
+                    sizeof(a.block(index)->voxels)) != 0) {
+      return false;
+    }
+  }
+  return true;
+}
 
 using TsdfLayer = Layer<TsdfVoxel>;
 using EsdfLayer = Layer<EsdfVoxel>;

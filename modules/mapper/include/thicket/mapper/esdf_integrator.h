@@ -1,0 +1,101 @@
+// The incremental Euclidean signed distance field (DESIGN §1, mapping): the TSDF blocks that a
+// depth frame changed, and the vehicle's position, in; the ESDF updated in place, and the ESDF
+// blocks that changed, out.
+//
+// Every voxel gets a class from its TSDF voxel and two spheres ("unknown space is occupied"):
+//   - observed (TSDF weight >= min_weight, finite distance) with |distance| <= the surface band:
+//     a fixed site carrying its TSDF distance (observed, fixed);
+//   - observed beyond the band: free (distance > 0) or inside an obstacle (distance < 0), with
+//     the magnitude from propagation (observed, not fixed);
+//   - unobserved within clear_radius of the initial position: free (observed, not fixed), so that
+//     the vehicle can take off;
+//   - otherwise unobserved within occupied_radius of the current position: an occupied site at
+//     distance 0 (not observed, fixed);
+//   - otherwise unknown (not observed, not fixed, distance 0), outside the propagation.
+// Distances propagate from the sites over the 26-neighbourhood (edges of 1, sqrt 2, sqrt 3 voxel
+// sizes): a free voxel gets max(0, min over free or site neighbours n of d_n + edge), an inside
+// voxel minus the same through inside voxels with the sites' distances negated. Magnitudes
+// saturate at max_distance, which is also what voxels that no site reaches within it get.
+//
+// update() is a raise/lower wavefront over the changes only (a dynamic shortest-path tree with a
+// parent direction per voxel); its result equals recompute() on the same TSDF and positions (the
+// same flags and blocks, distances within float rounding). An ESDF block is allocated exactly when
+// one of its voxels is observed or fixed. Deterministic: the same calls give the same bytes.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "thicket/common/params.h"
+#include "thicket/common/voxel_layer.h"
+
+namespace thicket::mapper {
+
+struct EsdfIntegratorOptions {
+  /// Distances saturate at +-this [m].
+  double max_distance = 2.0;
+  /// r_c: unobserved voxels this close to the initial position count as observed free [m]. Wins
+  /// over occupied_radius where both apply.
+  double clear_radius = 1.5;
+  /// r_o: unobserved voxels this close to the current position count as occupied [m]. Smaller
+  /// than clear_radius is allowed (then only the clear sphere's outside is occupied near the
+  /// start).
+  double occupied_radius = 5.0;
+  /// Observed voxels with |TSDF distance| <= this * voxel size are fixed sites.
+  double surface_band_voxels = 1.0;
+  /// TSDF voxels with less weight than this are unobserved.
+  double min_weight = 1e-6;
+
+  void declare(Params& p);
+};
+
+struct EsdfUpdateResult {
+  /// ESDF blocks with a voxel whose distance or flags changed, new blocks included; sorted
+  /// (indexLess), unique.
+  std::vector<BlockIndex> changed_blocks;
+  /// ESDF blocks deleted because none of their voxels is observed or fixed any more; sorted.
+  std::vector<BlockIndex> removed_blocks;
+  /// Voxels whose distance or flags changed.
+  int64_t voxels_updated = 0;
+};
+
+class EsdfIntegrator {
+ public:
+  /// Throws std::invalid_argument unless every option is positive and finite.
+  explicit EsdfIntegrator(EsdfIntegratorOptions options);
+  ~EsdfIntegrator();
+  EsdfIntegrator(EsdfIntegrator&&) noexcept;
+  EsdfIntegrator& operator=(EsdfIntegrator&&) noexcept;
+
+  const EsdfIntegratorOptions& options() const;
+
+  /// The first position of the vehicle, the centre of the clear sphere. Must be called before
+  /// update() or recompute(); calling it again with another position makes the next update()
+  /// recompute from scratch. Throws std::invalid_argument if p is not finite.
+  void setInitialPosition(const Eigen::Vector3d& p);
+
+  /// Incremental: the TSDF blocks in changed_tsdf_blocks (any order, duplicates allowed, blocks
+  /// no longer allocated allowed) changed since the last call, and the vehicle is now at
+  /// current_position (the occupied sphere moves with it). esdf must be the layer of the previous
+  /// call, its blocks neither added nor removed since (a mismatch in the number of blocks throws
+  /// std::logic_error). The first call, and the first after the initial position or the voxel
+  /// size changed, recomputes from scratch. Throws std::logic_error before setInitialPosition(),
+  /// std::invalid_argument if the layers' voxel sizes differ or the position is not finite; the
+  /// layer is unchanged when it throws.
+  EsdfUpdateResult update(const TsdfLayer& tsdf, const std::vector<BlockIndex>& changed_tsdf_blocks,
+                          const Eigen::Vector3d& current_position, EsdfLayer& esdf);
+
+  /// From scratch on the whole TSDF: clears esdf and all internal state first. removed_blocks
+  /// lists the blocks esdf had before that it no longer has. Throws as update() does.
+  EsdfUpdateResult recompute(const TsdfLayer& tsdf, const Eigen::Vector3d& current_position,
+                             EsdfLayer& esdf);
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace thicket::mapper

@@ -1,0 +1,108 @@
+// The mapper core (DESIGN §2): depth frames and body poses in, a TSDF and an incrementally updated
+// ESDF out, one map revision per integrated frame. No LCM: the node adapts messages to this.
+//
+// A frame is integrated with the body pose at its own utime, interpolated from the pose stream;
+// a frame newer than the newest pose waits (pending) until the poses catch up, never taking "the
+// latest pose". Frames are integrated in utime order; a frame not newer than the last accepted
+// one, or one whose pose can never be known (older than the pose history, or inside a gap of the
+// pose stream), is refused with the reason, and the map is left as it was.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "thicket/common/depth_image.h"
+#include "thicket/common/geometry.h"
+#include "thicket/common/params.h"
+#include "thicket/common/voxel_layer.h"
+#include "thicket/mapper/esdf_integrator.h"
+#include "thicket/mapper/tsdf_integrator.h"
+
+namespace thicket::mapper {
+
+struct MapperOptions {
+  double voxel_size = 0.2;  ///< [m]
+  TsdfIntegratorOptions tsdf;
+  EsdfIntegratorOptions esdf;
+  PoseHistoryOptions poses;
+  /// Frames waiting for their pose; when one more arrives the oldest is refused.
+  int max_pending_frames = 10;
+
+  void declare(Params& p);
+};
+
+/// What became of a frame.
+struct FrameOutcome {
+  enum class Status { kIntegrated, kPending, kRefused };
+  Status status = Status::kRefused;
+  int64_t utime = 0;
+  std::string reason;  ///< why it was refused, or what it waits for
+};
+
+/// One integrated frame: the map revision it made and what changed.
+struct MapRevisionUpdate {
+  int64_t utime = 0;
+  int64_t revision = 0;
+  std::vector<BlockIndex> tsdf_changed;
+  std::vector<BlockIndex> esdf_changed;
+  std::vector<BlockIndex> esdf_removed;
+  double tsdf_ms = 0;  ///< time to integrate the frame (measured, never used to decide)
+  double esdf_ms = 0;  ///< time to update the ESDF
+};
+
+class Mapper {
+ public:
+  /// now_ms measures stage durations for the report (e.g. a steady clock); the default reads 0,
+  /// so that the core never depends on the wall clock. Throws std::invalid_argument on bad
+  /// options.
+  explicit Mapper(MapperOptions options, std::function<double()> now_ms = {});
+
+  /// Adds a body pose (world_T_body) to the history. Refused (the reason returned) when not
+  /// finite, not unit, or not newer than the previous one. The first accepted pose is the
+  /// initial position (the centre of the ESDF's clear sphere).
+  std::optional<std::string> addPose(int64_t utime, const Pose& world_T_body);
+
+  /// Takes a decoded frame: pending until its pose is known, or refused. Call integrateReady()
+  /// after this and after addPose() to integrate what became ready.
+  FrameOutcome addFrame(DepthImage frame);
+
+  /// Integrates, in utime order, every pending frame whose pose is known, and refuses those
+  /// whose pose never will be (or that too many newer frames pushed out of the queue). One
+  /// outcome per frame dealt with; updates for the integrated ones.
+  std::vector<FrameOutcome> integrateReady(std::vector<MapRevisionUpdate>& updates);
+
+  const TsdfLayer& tsdf() const { return tsdf_; }
+  const EsdfLayer& esdf() const { return esdf_; }
+  const MapperOptions& options() const { return options_; }
+  /// The current revision: the number of integrated frames.
+  int64_t revision() const { return revision_; }
+  /// Time of the newest integrated frame [µs], 0 before any.
+  int64_t utime() const { return utime_; }
+  size_t pendingFrames() const { return pending_.size(); }
+  int64_t framesIntegrated() const { return revision_; }
+  int64_t framesRefused() const { return frames_refused_; }
+
+ private:
+  FrameOutcome refuse(int64_t utime, std::string reason);
+
+  MapperOptions options_;
+  std::function<double()> now_ms_;
+  TsdfIntegrator tsdf_integrator_;
+  EsdfIntegrator esdf_integrator_;
+  TsdfLayer tsdf_;
+  EsdfLayer esdf_;
+  PoseHistory poses_;
+  bool has_initial_position_ = false;
+  std::deque<DepthImage> pending_;     // utime order
+  std::vector<FrameOutcome> dropped_;  // pending frames pushed out; reported by integrateReady
+  int64_t last_frame_utime_ = -1;      // the newest frame accepted (pending or integrated)
+  int64_t revision_ = 0;
+  int64_t utime_ = 0;
+  int64_t frames_refused_ = 0;
+};
+
+}  // namespace thicket::mapper

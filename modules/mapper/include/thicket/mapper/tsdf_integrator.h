@@ -1,0 +1,84 @@
+// TSDF integration (DESIGN §1, mapping): one depth image and the camera pose in, updated voxels
+// and the blocks that changed out, so that the ESDF can be updated incrementally from them.
+//
+// Both integrators apply the same per-voxel rule. A return at depth z (optical-frame z [m]) gives
+// the voxels along its line of sight sdf = measured - voxel distance, clamped to
+// [-truncation, truncation], with weight 1 / z^2 (z clamped below at kMinWeightDepth): full down to
+// sdf = -voxel_size, then falling linearly to 0 at sdf = -truncation; voxels deeper than the
+// truncation behind the surface are not touched. A voxel moves to the weighted mean
+//   d = (w_old d_old + w sdf) / (w_old + w),   weight = min(w_old + w, max_weight),
+// so a saturated voxel keeps following new measurements. Pixels that see nothing within range
+// (no return, a return beyond the sensor's max_range or beyond max_integration_range) clear the
+// space they looked through up to max_integration_range: sdf = truncation, or the distance to the
+// return when it is known and closer than that, with the weight of a return at the end of the
+// integration range, 1 / max_integration_range^2, so clearing never outweighs a real surface.
+// Returns below the image's min_range are not measurements and are ignored.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "thicket/common/depth_image.h"
+#include "thicket/common/geometry.h"
+#include "thicket/common/params.h"
+#include "thicket/common/voxel_layer.h"
+
+namespace thicket::mapper {
+
+struct TsdfIntegratorOptions {
+  enum class Method {
+    /// Voxel-centric (the default): every voxel of the blocks in the camera frustum is projected
+    /// into the image (nearest pixel); its sdf is the projective distance, the measured depth
+    /// minus the voxel's optical z. Cost grows with the frustum volume, not with the pixels.
+    kProjective,
+    /// Ray-centric, for comparison (voxblox's "simple" integrator): each pixel's ray visits the
+    /// voxels it passes through (3-D DDA) up to the return plus the truncation; the sdf is the
+    /// range of the return minus the voxel centre's distance along the ray.
+    kRaycast,
+  };
+  Method method = Method::kProjective;  ///< "projective" or "raycast"
+  /// Truncation distance = this * voxel size.
+  double truncation_voxels = 4;
+  /// No surface is integrated beyond this, and clearing stops here [m]; measured as optical z by
+  /// the projective method and as range along the ray by the ray caster.
+  double max_integration_range = 5.0;
+  /// Weights saturate here, so that the map can still change.
+  double max_weight = 1e4;
+
+  void declare(Params& p);
+};
+
+struct TsdfIntegrationResult {
+  /// Every block with a voxel whose distance or weight changed (newly allocated ones included),
+  /// sorted with indexLess, without duplicates.
+  std::vector<BlockIndex> changed_blocks;
+  /// Voxel updates applied; the ray caster counts a voxel once per ray that updates it.
+  int64_t voxels_updated = 0;
+};
+
+class TsdfIntegrator {
+ public:
+  /// Weights come from depths no smaller than this [m], so that a return right in front of the
+  /// lens cannot dominate a voxel.
+  static constexpr double kMinWeightDepth = 0.1;
+
+  /// Throws std::invalid_argument unless the truncation, range and maximum weight are positive
+  /// and finite and the method is known.
+  explicit TsdfIntegrator(TsdfIntegratorOptions options);
+
+  const TsdfIntegratorOptions& options() const { return options_; }
+
+  /// Integrates one depth image seen from world_T_camera (optical frame: z forward, x right,
+  /// y down) into layer. Allocates only blocks in which some voxel is updated. Deterministic: the
+  /// same inputs give the same layer bit for bit. Throws std::invalid_argument, before changing
+  /// the layer, when the image is inconsistent (depth size other than width * height, an invalid
+  /// camera or range limits, negative or non-finite depths) or the pose is not finite with a unit
+  /// quaternion (within 1e-3).
+  TsdfIntegrationResult integrate(const DepthImage& image, const Pose& world_T_camera,
+                                  TsdfLayer& layer) const;
+
+ private:
+  TsdfIntegratorOptions options_;
+};
+
+}  // namespace thicket::mapper

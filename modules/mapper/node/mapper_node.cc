@@ -1,0 +1,170 @@
+#include "mapper_node.h"
+
+#include <algorithm>
+#include <cstdio>
+
+#include <thicket/map_update_t.hpp>
+#include <thicket/module_timing_t.hpp>
+
+#include "thicket/common/depth_image.h"
+#include "thicket/common/map_update.h"
+
+namespace thicket::mapper {
+
+void MapperNodeOptions::declare(Params& p) {
+  p.group("mapper", mapper, "the map: voxels, integration, ESDF, pose pairing");
+  p("map_id", map_id, "identifies the map to mirrors; 0: from the wall clock at start");
+  p("depth_channel", depth_channel, "depth frames in (depth_image_t)");
+  p("state_channel", state_channel, "body poses in (odometry_t)");
+  p("max_message_kib", max_message_kib, "compressed block bytes per map message [KiB]",
+    Range::between(16, 900));
+}
+
+namespace {
+
+double median(std::vector<double> values) {
+  if (values.empty()) return 0;
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  return values[mid];
+}
+
+}  // namespace
+
+MapperNode::MapperNode(lcm::LCM& lcm, const MapperNodeOptions& options, int64_t map_id,
+                       std::function<double()> now_ms)
+    : Node("mapper", lcm), options_(options), map_id_(map_id), mapper_(options.mapper, now_ms) {
+  // Depth frames come in bursts when a log replays; poses at 20-200 Hz.
+  subscribe<depth_image_t>(
+      options_.depth_channel,
+      [this](const depth_image_t& msg, const MessageInfo&) { onDepth(msg); }, 100);
+  subscribe<odometry_t>(
+      options_.state_channel, [this](const odometry_t& msg, const MessageInfo&) { onState(msg); },
+      1000);
+  subscribe<map_request_t>(
+      "MAP_REQUEST", [this](const map_request_t& msg, const MessageInfo&) { onRequest(msg); });
+}
+
+void MapperNode::onDepth(const depth_image_t& msg) {
+  auto frame = decodeDepthImage(msg);
+  if (!frame) {
+    ++undecodable_frames_;
+    publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED, "bad depth frame: " + frame.error());
+    return;
+  }
+  const FrameOutcome outcome = mapper_.addFrame(std::move(*frame));
+  if (outcome.status == FrameOutcome::Status::kRefused) {
+    publishStatus(outcome.utime, mapper_status_t::RESULT_REFUSED, outcome.reason);
+    return;
+  }
+  const std::vector<int64_t> handled = integrateReady();
+  if (std::find(handled.begin(), handled.end(), outcome.utime) == handled.end()) {
+    publishStatus(outcome.utime, mapper_status_t::RESULT_PENDING, outcome.reason);
+  }
+}
+
+void MapperNode::onState(const odometry_t& msg) {
+  if (msg.quality == odometry_t::QUALITY_LOST) {
+    publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED,
+                  "pose refused: the estimator reports it lost (" + msg.reason + ")");
+    return;
+  }
+  auto pose = poseFromArrays(msg.position, msg.orientation);
+  std::optional<std::string> refused =
+      pose ? mapper_.addPose(msg.utime, *pose) : std::optional<std::string>(pose.error());
+  if (refused) {
+    publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED, "pose refused: " + *refused);
+    return;
+  }
+  integrateReady();
+}
+
+std::vector<int64_t> MapperNode::integrateReady() {
+  std::vector<MapRevisionUpdate> updates;
+  const std::vector<FrameOutcome> outcomes = mapper_.integrateReady(updates);
+  std::vector<int64_t> handled;
+  auto update = updates.begin();
+  for (const FrameOutcome& outcome : outcomes) {
+    handled.push_back(outcome.utime);
+    if (outcome.status != FrameOutcome::Status::kIntegrated) {
+      publishStatus(outcome.utime, mapper_status_t::RESULT_REFUSED, outcome.reason);
+      continue;
+    }
+    // Every revision goes out on both layers, even without changes, so that mirrors see no gap.
+    publishLayer("MAP_TSDF", mapper_.tsdf(), update->utime, update->revision, false,
+                 update->tsdf_changed, {});
+    publishLayer("MAP_ESDF", mapper_.esdf(), update->utime, update->revision, false,
+                 update->esdf_changed, update->esdf_removed);
+    tsdf_ms_.push_back(update->tsdf_ms);
+    esdf_ms_.push_back(update->esdf_ms);
+    module_timing_t timing;
+    timing.utime = update->utime;
+    timing.module = "mapper";
+    timing.sequence = update->revision;
+    timing.stages = {"tsdf_insert", "esdf_update"};
+    timing.durations_ms = {update->tsdf_ms, update->esdf_ms};
+    timing.num_stages = 2;
+    publish("MODULE_TIMING", timing);
+    publishStatus(outcome.utime, mapper_status_t::RESULT_INTEGRATED, "");
+    ++update;
+  }
+  return handled;
+}
+
+void MapperNode::onRequest(const map_request_t& msg) {
+  const std::string who = msg.requester.empty() ? "a mirror" : msg.requester;
+  if (msg.layer == map_update_t::LAYER_TSDF) {
+    publishLayer("MAP_TSDF", mapper_.tsdf(), mapper_.utime(), mapper_.revision(), true, {}, {});
+  } else if (msg.layer == map_update_t::LAYER_ESDF) {
+    publishLayer("MAP_ESDF", mapper_.esdf(), mapper_.utime(), mapper_.revision(), true, {}, {});
+  } else {
+    publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED,
+                  "map request from " + who + " for unknown layer " + std::to_string(msg.layer));
+    return;
+  }
+  publishStatus(mapper_.utime(), mapper_status_t::RESULT_SNAPSHOT_SENT,
+                "snapshot of layer " + std::to_string(msg.layer) + " at revision " +
+                    std::to_string(mapper_.revision()) + " for " + who + " (" + msg.reason + ")");
+}
+
+template <class Voxel>
+void MapperNode::publishLayer(const std::string& channel, const Layer<Voxel>& layer, int64_t utime,
+                              int64_t revision, bool full_snapshot,
+                              const std::vector<BlockIndex>& changed,
+                              const std::vector<BlockIndex>& removed) {
+  const MapRevision header{utime, map_id_, revision, full_snapshot};
+  for (const map_update_t& part : encodeMapUpdate(
+           layer, header, changed, removed, static_cast<size_t>(options_.max_message_kib) * 1024)) {
+    publish(channel, part);
+  }
+}
+
+void MapperNode::publishStatus(int64_t utime, int8_t result, const std::string& reason) {
+  mapper_status_t status;
+  status.utime = utime;
+  status.result = result;
+  status.reason = reason;
+  status.map_id = map_id_;
+  status.revision = mapper_.revision();
+  status.num_tsdf_blocks = static_cast<int32_t>(mapper_.tsdf().numBlocks());
+  status.num_esdf_blocks = static_cast<int32_t>(mapper_.esdf().numBlocks());
+  status.memory_bytes =
+      static_cast<int64_t>(mapper_.tsdf().memoryBytes() + mapper_.esdf().memoryBytes());
+  status.frames_integrated = mapper_.framesIntegrated();
+  status.frames_refused = framesRefused();
+  status.frames_pending = static_cast<int32_t>(mapper_.pendingFrames());
+  publish("MAPPER_STATUS", status);
+}
+
+std::string MapperNode::summary() const {
+  char line[256];
+  std::snprintf(line, sizeof(line),
+                "%lld frames integrated, %lld refused; tsdf_insert median %.2f ms, esdf_update "
+                "median %.2f ms; %zu TSDF and %zu ESDF blocks",
+                static_cast<long long>(mapper_.framesIntegrated()),
+                static_cast<long long>(framesRefused()), median(tsdf_ms_), median(esdf_ms_),
+                mapper_.tsdf().numBlocks(), mapper_.esdf().numBlocks());
+  return line;
+}
+
+}  // namespace thicket::mapper

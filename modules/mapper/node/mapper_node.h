@@ -1,0 +1,65 @@
+// thicket-mapper as an LCM node: CAMERA_DEPTH and STATE_ESTIMATE in; MAP_TSDF and MAP_ESDF
+// deltas (one revision per integrated frame), MAPPER_STATUS and MODULE_TIMING out; answers
+// MAP_REQUEST with a full snapshot of the requested layer.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <thicket/depth_image_t.hpp>
+#include <thicket/map_request_t.hpp>
+#include <thicket/mapper_status_t.hpp>
+#include <thicket/odometry_t.hpp>
+
+#include "thicket/common/node.h"
+#include "thicket/common/params.h"
+#include "thicket/mapper/mapper.h"
+
+namespace thicket::mapper {
+
+struct MapperNodeOptions {
+  MapperOptions mapper;
+  /// Identifies this map to the mirrors; 0 picks one from the wall clock at start, so that a
+  /// restarted mapper is a new map. Replay and tests set it.
+  int64_t map_id = 0;
+  std::string depth_channel = "CAMERA_DEPTH";
+  std::string state_channel = "STATE_ESTIMATE";
+  /// Compressed block bytes per map message; a revision is split into parts above this [KiB].
+  int max_message_kib = 256;
+
+  void declare(Params& p);
+};
+
+class MapperNode : public Node {
+ public:
+  /// now_ms measures stage durations for MODULE_TIMING (never used to decide).
+  MapperNode(lcm::LCM& lcm, const MapperNodeOptions& options, int64_t map_id,
+             std::function<double()> now_ms = {});
+
+  const Mapper& mapper() const { return mapper_; }
+  int64_t mapId() const { return map_id_; }
+  /// Frames refused, whether they did not decode or the mapper refused them.
+  int64_t framesRefused() const { return mapper_.framesRefused() + undecodable_frames_; }
+  /// "N frames integrated, M refused; tsdf_insert median X ms, esdf_update median Y ms".
+  std::string summary() const;
+
+ private:
+  void onDepth(const depth_image_t& msg);
+  void onState(const odometry_t& msg);
+  void onRequest(const map_request_t& msg);
+  // Integrates what became ready and publishes the results; the utimes of the frames dealt with.
+  std::vector<int64_t> integrateReady();
+  void publishStatus(int64_t utime, int8_t result, const std::string& reason);
+  template <class Voxel>
+  void publishLayer(const std::string& channel, const Layer<Voxel>& layer, int64_t utime,
+                    int64_t revision, bool full_snapshot, const std::vector<BlockIndex>& changed,
+                    const std::vector<BlockIndex>& removed);
+
+  MapperNodeOptions options_;
+  int64_t map_id_;
+  Mapper mapper_;
+  std::vector<double> tsdf_ms_, esdf_ms_;
+  int64_t undecodable_frames_ = 0;
+};
+
+}  // namespace thicket::mapper

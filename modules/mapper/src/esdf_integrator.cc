@@ -1,0 +1,861 @@
+#include "thicket/mapper/esdf_integrator.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+namespace thicket::mapper {
+namespace {
+
+// A voxel's class (the low bits of Node::state); see the header.
+enum : uint8_t { kUnknown = 0, kFree = 1, kInside = 2, kSurface = 3, kOccupied = 4 };
+constexpr uint8_t kClassMask = 7;
+// Set while the voxel is in the running call's touched list.
+constexpr uint8_t kTouched = 8;
+constexpr uint8_t kNoParent = 26;
+
+// Which children a raise reaches: those on the free side, those on the inside side; and whether
+// they keep their parent with a value recomputed from it (a site's value grew) rather than lose it.
+constexpr uint8_t kRaiseFree = 1;
+constexpr uint8_t kRaiseInside = 2;
+constexpr uint8_t kReevaluate = 4;
+
+bool isSite(uint8_t cls) {
+  return cls >= kSurface;
+}
+bool propagates(uint8_t cls) {
+  return cls == kFree || cls == kInside;
+}
+uint8_t sideOf(uint8_t cls) {
+  return cls == kFree ? kRaiseFree : cls == kInside ? kRaiseInside : 0;
+}
+
+// The 26 neighbour offsets, z slowest and x fastest, (0, 0, 0) left out: so the opposite of
+// direction d is 25 - d.
+struct Neighbourhood {
+  std::array<std::array<int, 3>, 26> offset{};
+  std::array<int, 26> linear{};  // the offset in a block's array, for voxels off its faces
+  std::array<int, 26> steps{};   // non-zero components: the edge is sqrt(steps) voxels long
+};
+
+constexpr Neighbourhood makeNeighbourhood() {
+  Neighbourhood n;
+  int d = 0;
+  for (int z = -1; z <= 1; ++z) {
+    for (int y = -1; y <= 1; ++y) {
+      for (int x = -1; x <= 1; ++x) {
+        if (x == 0 && y == 0 && z == 0) continue;
+        n.offset[d] = {x, y, z};
+        n.linear[d] = x + kVoxelsPerSide * y + kVoxelsPerSide * kVoxelsPerSide * z;
+        n.steps[d] = (x != 0) + (y != 0) + (z != 0);
+        ++d;
+      }
+    }
+  }
+  return n;
+}
+constexpr Neighbourhood kNeighbours = makeNeighbourhood();
+
+double square(double x) {
+  return x * x;
+}
+
+double centre(int i, double voxel_size) {
+  return (i + 0.5) * voxel_size;
+}
+
+// Voxel x indices lo..hi of one row of voxels; empty when lo > hi.
+struct Span {
+  int lo = 0;
+  int hi = -1;
+  bool empty() const { return lo > hi; }
+  bool contains(int x) const { return lo <= x && x <= hi; }
+};
+
+// The voxels of row (y, z) whose centres lie within sqrt(r2) of p. The one definition of sphere
+// membership: classification and the search for voxels that entered or left the occupied sphere
+// both ask it, and it is not inlined, so that no caller can round differently.
+[[gnu::noinline]] Span rowSpan(const Eigen::Vector3d& p, double r2, int y, int z, double vs) {
+  const double ry2 = square(centre(y, vs) - p.y()) + square(centre(z, vs) - p.z());
+  if (!(ry2 <= r2)) return {};
+  const double h = std::sqrt(r2 - ry2);
+  return {static_cast<int>(std::ceil((p.x() - h) / vs - 0.5)),
+          static_cast<int>(std::floor((p.x() + h) / vs - 0.5))};
+}
+
+// Calls f(lo, hi) for the ranges of a that are not in b.
+template <class F>
+void forEachInDifference(const Span& a, const Span& b, F&& f) {
+  if (a.empty()) return;
+  if (b.empty()) {
+    f(a.lo, a.hi);
+    return;
+  }
+  if (a.lo < b.lo) f(a.lo, std::min(a.hi, b.lo - 1));
+  if (a.hi > b.hi) f(std::max(a.lo, b.hi + 1), a.hi);
+}
+
+// The integrator's side of one ESDF block: each voxel's class, value and shortest-path parent.
+struct Node {
+  // none: the stand-in for blocks that are not allocated.
+  Node(const BlockIndex& block_index, Node* none) : index(block_index) {
+    neighbours.fill(none);
+    neighbours[13] = this;
+    parent.fill(kNoParent);
+  }
+  BlockIndex index;
+  uint32_t id = 0;  // the integrator's short name for the node
+  // The 3x3x3 blocks around this one, x fastest; cached so that neighbour lookups across block
+  // faces need no hashing. Missing blocks are the integrator's empty stand-in, all unknown.
+  std::array<Node*, 27> neighbours;
+  int known = 0;        // voxels that are not unknown; the ESDF block exists exactly when known > 0
+  int propagating = 0;  // free and inside voxels
+  uint64_t changed_in_call = 0;
+  EsdfLayer::BlockType* out = nullptr;  // valid while a call writes its changes out
+  // Sites: their distance; free and inside voxels: the magnitude; unknown: 0.
+  std::array<float, kVoxelsPerBlock> value{};
+  std::array<uint8_t, kVoxelsPerBlock> state{};  // class | kTouched
+  std::array<uint8_t, kVoxelsPerBlock> parent;   // direction to the parent, or kNoParent
+};
+
+struct Classified {
+  uint8_t cls;
+  float value;  // sites: their distance; free and inside voxels: max_distance (unreached)
+};
+
+// Whether a free or inside voxel may be among the neighbours of voxel lin: false skips the scan
+// of sites deep in unobserved space, which the moving occupied sphere creates and removes.
+inline bool nearPropagating(const Node* node, int lin) {
+  if (node->propagating > 0) return true;
+  const int x = lin & 15;
+  const int y = (lin >> 4) & 15;
+  const int z = lin >> 8;
+  if (static_cast<unsigned>(x - 1) < 14u && static_cast<unsigned>(y - 1) < 14u &&
+      static_cast<unsigned>(z - 1) < 14u) {
+    return false;
+  }
+  for (const Node* other : node->neighbours) {
+    if (other->propagating > 0) return true;
+  }
+  return false;
+}
+
+// Calls f(direction, node, linear index) for each neighbour (in the empty stand-in if its block is
+// not allocated).
+template <class F>
+inline void forEachNeighbour(Node* node, int lin, F&& f) {
+  const int x = lin & 15;
+  const int y = (lin >> 4) & 15;
+  const int z = lin >> 8;
+  if (static_cast<unsigned>(x - 1) < 14u && static_cast<unsigned>(y - 1) < 14u &&
+      static_cast<unsigned>(z - 1) < 14u) {
+    for (int d = 0; d < 26; ++d) f(d, node, lin + kNeighbours.linear[d]);
+    return;
+  }
+  // Per axis and offset -1, 0, 1: the neighbouring block's slot in Node::neighbours and the
+  // coordinate in it, both scaled by the axis' stride. (n + 16) >> 4 maps -1, 0..15, 16 to 0, 1, 2.
+  int slot[3][3];
+  int local[3][3];
+  const int coordinate[3] = {x, y, z};
+  constexpr int kSlotStride[3] = {1, 3, 9};
+  constexpr int kLinearStride[3] = {1, kVoxelsPerSide, kVoxelsPerSide * kVoxelsPerSide};
+  for (int a = 0; a < 3; ++a) {
+    for (int o = 0; o < 3; ++o) {
+      const int n = coordinate[a] + o - 1;
+      slot[a][o] = ((n + 16) >> 4) * kSlotStride[a];
+      local[a][o] = (n & 15) * kLinearStride[a];
+    }
+  }
+  int d = 0;
+#pragma GCC unroll 3
+  for (int k = 0; k < 3; ++k) {
+#pragma GCC unroll 3
+    for (int j = 0; j < 3; ++j) {
+#pragma GCC unroll 3
+      for (int i = 0; i < 3; ++i) {
+        if (i == 1 && j == 1 && k == 1) continue;
+        f(d++, node->neighbours[slot[0][i] + slot[1][j] + slot[2][k]],
+          local[0][i] + local[1][j] + local[2][k]);
+      }
+    }
+  }
+}
+
+// A monotone min-queue of 32-bit keys with 32-bit payloads (a radix heap): exact, for Dijkstra's
+// algorithm, where no key pushed is below the last one popped. A key waits in the bucket of the
+// highest bit in which it differs from the last key popped (bucket 0: equal to it); when bucket 0
+// runs empty, the lowest non-empty bucket is spread over the lower ones, around its minimum.
+// Equal keys leave last in, first out: deterministic.
+class MonotoneQueue {
+ public:
+  bool empty() const { return size_ == 0; }
+
+  void clear() {
+    for (std::vector<uint64_t>& b : buckets_) b.clear();
+    nonempty_ = 0;
+    size_ = 0;
+    last_ = 0;
+  }
+
+  void push(uint32_t key, uint32_t payload) {
+    const int b = bucket(key);
+    buckets_[b].push_back(uint64_t{key} << 32 | payload);
+    nonempty_ |= uint64_t{1} << b;
+    ++size_;
+  }
+
+  // The payload of an entry with the smallest key, and that key.
+  uint32_t pop(uint32_t& key) {
+    if (buckets_[0].empty()) {
+      const int i = std::countr_zero(nonempty_ & ~uint64_t{1});
+      std::vector<uint64_t>& from = buckets_[i];
+      nonempty_ &= ~(uint64_t{1} << i);
+      last_ = static_cast<uint32_t>(*std::min_element(from.begin(), from.end()) >> 32);
+      for (const uint64_t e : from) {
+        const int b = bucket(static_cast<uint32_t>(e >> 32));
+        buckets_[b].push_back(e);
+        nonempty_ |= uint64_t{1} << b;
+      }
+      from.clear();
+    }
+    const uint64_t e = buckets_[0].back();
+    buckets_[0].pop_back();
+    if (buckets_[0].empty()) nonempty_ &= ~uint64_t{1};
+    --size_;
+    key = static_cast<uint32_t>(e >> 32);
+    return static_cast<uint32_t>(e);
+  }
+
+ private:
+  int bucket(uint32_t key) const { return 32 - std::countl_zero(key ^ last_); }
+
+  std::array<std::vector<uint64_t>, 33> buckets_;
+  uint64_t nonempty_ = 0;  // bit b: bucket b holds entries
+  uint32_t last_ = 0;
+  size_t size_ = 0;
+};
+
+void checkPosition(const Eigen::Vector3d& p, const char* what) {
+  // The bound keeps voxel indices far from int overflow at any sensible voxel size.
+  if (!(p.array().abs() <= 1e6).all()) {
+    throw std::invalid_argument(std::string("EsdfIntegrator: the ") + what +
+                                " must be finite and within 1e6 m of the origin");
+  }
+}
+
+}  // namespace
+
+void EsdfIntegratorOptions::declare(Params& p) {
+  p("max_distance", max_distance, "distances saturate at +-this [m]", Range::positive());
+  p("clear_radius", clear_radius,
+    "r_c: unobserved voxels this close to the initial position are free [m]", Range::positive());
+  p("occupied_radius", occupied_radius,
+    "r_o: unobserved voxels this close to the vehicle are occupied [m]", Range::positive());
+  p("surface_band_voxels", surface_band_voxels,
+    "observed voxels with |TSDF distance| <= this * voxel size are fixed sites [voxels]",
+    Range::positive());
+  p("min_weight", min_weight, "TSDF voxels with less weight are unobserved", Range::positive());
+}
+
+class EsdfIntegrator::Impl {
+ public:
+  explicit Impl(EsdfIntegratorOptions options) : options_(options) {
+    const double values[] = {options.max_distance, options.clear_radius, options.occupied_radius,
+                             options.surface_band_voxels, options.min_weight};
+    for (const double v : values) {
+      if (!(v > 0 && std::isfinite(v))) {
+        throw std::invalid_argument("EsdfIntegrator: every option must be positive and finite");
+      }
+    }
+    max_ = static_cast<float>(options.max_distance);
+    min_weight_ = static_cast<float>(options.min_weight);
+  }
+
+  const EsdfIntegratorOptions& options() const { return options_; }
+
+  void setInitialPosition(const Eigen::Vector3d& p) {
+    checkPosition(p, "initial position");
+    if (has_initial_ && p != initial_) built_ = false;
+    initial_ = p;
+    has_initial_ = true;
+  }
+
+  EsdfUpdateResult update(const TsdfLayer& tsdf, const std::vector<BlockIndex>& changed_tsdf_blocks,
+                          const Eigen::Vector3d& position, EsdfLayer& esdf) {
+    checkInputs(tsdf, position, esdf);
+    if (!built_ || tsdf.voxelSize() != voxel_size_) return recompute(tsdf, position, esdf);
+    if (esdf.numBlocks() != nodes_.size()) {
+      throw std::logic_error(
+          "EsdfIntegrator::update: esdf is not the layer of the previous call (blocks differ)");
+    }
+    beginCall();
+    std::vector<BlockIndex> blocks = changed_tsdf_blocks;
+    std::sort(blocks.begin(), blocks.end(), indexLess);
+    blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
+    const Eigen::Vector3d previous = position_;
+    position_ = position;
+    for (const BlockIndex& b : blocks) {
+      const TsdfLayer::BlockType* tsdf_block = tsdf.block(b);
+      Node* node = find(b);
+      // Without either, every voxel was unknown and stays so, except where the occupied sphere
+      // arrived, which sphereDifference handles.
+      if (tsdf_block == nullptr && node == nullptr) continue;
+      classifyBlock(b, tsdf_block, node);
+    }
+    if (previous != position) {
+      sphereDifference(tsdf, previous, position);
+      sphereDifference(tsdf, position, previous);
+    }
+    propagate(/*incremental=*/true);
+    return finish(esdf);
+  }
+
+  EsdfUpdateResult recompute(const TsdfLayer& tsdf, const Eigen::Vector3d& position,
+                             EsdfLayer& esdf) {
+    checkInputs(tsdf, position, esdf);
+    const std::vector<BlockIndex> before = esdf.blockIndices();
+    esdf.clear();
+    nodes_.clear();
+    by_id_.clear();
+    free_ids_.clear();
+    voxel_size_ = tsdf.voxelSize();
+    band_ = static_cast<float>(options_.surface_band_voxels * voxel_size_);
+    rc2_ = square(options_.clear_radius);
+    ro2_ = square(options_.occupied_radius);
+    for (int d = 0; d < 26; ++d) {
+      edge_[d] =
+          static_cast<float>(voxel_size_ * std::sqrt(static_cast<double>(kNeighbours.steps[d])));
+    }
+    position_ = position;
+    built_ = true;
+    beginCall();
+
+    std::vector<BlockIndex> blocks = tsdf.blockIndices();
+    appendSphereBlocks(initial_, options_.clear_radius, blocks);
+    appendSphereBlocks(position, options_.occupied_radius, blocks);
+    std::sort(blocks.begin(), blocks.end(), indexLess);
+    blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
+    for (const BlockIndex& b : blocks) classifyBlock(b, tsdf.block(b), nullptr);
+    propagate(/*incremental=*/false);
+
+    EsdfUpdateResult result = finish(esdf);
+    for (const BlockIndex& b : before) {
+      if (esdf.block(b) == nullptr) result.removed_blocks.push_back(b);
+    }
+    return result;
+  }
+
+ private:
+  struct Touched {
+    Node* node;
+    int lin;
+    uint8_t cls;  // before the call
+    float value;  // before the call
+  };
+  struct VoxelRef {
+    Node* node;
+    int lin;
+    uint8_t raise;  // kRaiseFree | kRaiseInside | kReevaluate
+  };
+
+  void checkInputs(const TsdfLayer& tsdf, const Eigen::Vector3d& position,
+                   const EsdfLayer& esdf) const {
+    if (!has_initial_) {
+      throw std::logic_error("EsdfIntegrator: setInitialPosition() must be called first");
+    }
+    if (tsdf.voxelSize() != esdf.voxelSize()) {
+      throw std::invalid_argument("EsdfIntegrator: the TSDF and ESDF voxel sizes differ");
+    }
+    checkPosition(position, "current position");
+  }
+
+  void beginCall() {
+    ++call_;
+    touched_.clear();
+    raise_.clear();
+    seeds_.clear();
+    tentative_.clear();
+    queue_.clear();
+    changed_nodes_.clear();
+  }
+
+  Node* find(const BlockIndex& b) const {
+    const auto it = nodes_.find(b);
+    return it == nodes_.end() ? nullptr : it->second.get();
+  }
+
+  Node* allocate(const BlockIndex& b) {
+    auto owned = std::make_unique<Node>(b, none_.get());
+    Node* node = owned.get();
+    for (int i = 0; i < 27; ++i) {
+      if (i == 13) continue;
+      Node* other = find(b + BlockIndex(i % 3 - 1, i / 3 % 3 - 1, i / 9 - 1));
+      if (other == nullptr) continue;
+      node->neighbours[i] = other;
+      other->neighbours[26 - i] = node;
+    }
+    if (free_ids_.empty()) {
+      // Queue entries hold the id in 20 bits: a million blocks, 24 GB of integrator state.
+      if (by_id_.size() >= (size_t{1} << 20)) {
+        throw std::length_error("EsdfIntegrator: more than 2^20 ESDF blocks");
+      }
+      node->id = static_cast<uint32_t>(by_id_.size());
+      by_id_.push_back(node);
+    } else {
+      node->id = free_ids_.back();
+      free_ids_.pop_back();
+      by_id_[node->id] = node;
+    }
+    nodes_.emplace(b, std::move(owned));
+    return node;
+  }
+
+  void erase(Node* node) {
+    for (int i = 0; i < 27; ++i) {
+      if (i != 13 && node->neighbours[i] != none_.get()) {
+        node->neighbours[i]->neighbours[26 - i] = none_.get();
+      }
+    }
+    by_id_[node->id] = nullptr;
+    free_ids_.push_back(node->id);
+    nodes_.erase(node->index);
+  }
+
+  void appendSphereBlocks(const Eigen::Vector3d& p, double r,
+                          std::vector<BlockIndex>& blocks) const {
+    // One voxel of margin: a centre within r lies in a voxel whose index floor() may round away.
+    const double reach = r + voxel_size_;
+    const BlockIndex lo = blockOfVoxel(voxelOf((p.array() - reach).matrix()));
+    const BlockIndex hi = blockOfVoxel(voxelOf((p.array() + reach).matrix()));
+    for (int z = lo.z(); z <= hi.z(); ++z) {
+      for (int y = lo.y(); y <= hi.y(); ++y) {
+        for (int x = lo.x(); x <= hi.x(); ++x) {
+          const BlockIndex b(x, y, z);
+          if (nearestSquared(b, p) <= square(reach)) blocks.push_back(b);
+        }
+      }
+    }
+  }
+
+  VoxelIndex voxelOf(const Eigen::Vector3d& p) const {
+    return (p / voxel_size_).array().floor().cast<int>().matrix();
+  }
+
+  // The squared distances from p to the nearest and the farthest voxel centre of block b.
+  double nearestSquared(const BlockIndex& b, const Eigen::Vector3d& p) const {
+    double sum = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double lo = centre(kVoxelsPerSide * b[a], voxel_size_);
+      const double hi = lo + (kVoxelsPerSide - 1) * voxel_size_;
+      sum += square(std::max({0.0, lo - p[a], p[a] - hi}));
+    }
+    return sum;
+  }
+  double farthestSquared(const BlockIndex& b, const Eigen::Vector3d& p) const {
+    double sum = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double lo = centre(kVoxelsPerSide * b[a], voxel_size_);
+      const double hi = lo + (kVoxelsPerSide - 1) * voxel_size_;
+      sum += square(std::max(std::abs(p[a] - lo), std::abs(p[a] - hi)));
+    }
+    return sum;
+  }
+
+  // The class of an unobserved voxel x of a row, from the row's spans of the clear and the
+  // occupied sphere.
+  Classified unobservedClass(int x, const Span& clear, const Span& occupied) const {
+    if (clear.contains(x)) return {kFree, max_};
+    if (occupied.contains(x)) return {kOccupied, 0};
+    return {kUnknown, 0};
+  }
+
+  // The class of a voxel from its TSDF voxel, or `unobserved` if the TSDF has not seen it.
+  Classified classify(const TsdfVoxel& t, const Classified& unobserved) const {
+    if (!(t.weight >= min_weight_)) return unobserved;
+    const float d = t.distance;
+    if (std::abs(d) <= band_) return {kSurface, std::clamp(d, -max_, max_)};
+    if (d > 0) return {kFree, max_};
+    if (d < 0) return {kInside, max_};
+    return unobserved;  // NaN
+  }
+
+  // Whether voxel lin already has class c (a site: and its value). Propagated values do not count.
+  static bool unchanged(const Node* node, int lin, const Classified& c) {
+    const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
+    return old == c.cls && (!isSite(old) || std::bit_cast<uint32_t>(node->value[lin]) ==
+                                                std::bit_cast<uint32_t>(c.value));
+  }
+
+  // Records the voxel's state before the call, once.
+  void touch(Node* node, int lin) {
+    if (!(node->state[lin] & kTouched)) record(node, lin);
+  }
+  void record(Node* node, int lin) {
+    uint8_t& state = node->state[lin];
+    touched_.push_back({node, lin, static_cast<uint8_t>(state & kClassMask), node->value[lin]});
+    state |= kTouched;
+  }
+
+  // Gives voxel lin of block b (node: nullptr if not allocated yet) its new class c, not the one it
+  // has. It drops its parent and raises the children that the change can lengthen; sites become
+  // seeds of the lower wavefront, free and inside voxels look for a new parent.
+  void reclassify(Node*& node, const BlockIndex& b, int lin, const Classified& c) {
+    const uint8_t cls = c.cls;
+    const float value = c.value;
+    const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
+    if (node == nullptr) node = allocate(b);
+    touch(node, lin);
+    const float old_value = node->value[lin];
+    uint8_t raise = 0;
+    if (propagates(old) || (isSite(old) && !isSite(cls))) {
+      raise = kRaiseFree | kRaiseInside;
+    } else if (isSite(old)) {
+      // A site is the free side's source at +value and the inside's at -value: the side whose
+      // source grew keeps its paths, only longer.
+      raise = value > old_value   ? kRaiseFree | kReevaluate
+              : value < old_value ? kRaiseInside | kReevaluate
+                                  : 0;
+    }
+    if (raise != 0) raise_.push_back({node, lin, raise});
+    node->known += (cls != kUnknown) - (old != kUnknown);
+    node->propagating += propagates(cls) - propagates(old);
+    node->state[lin] = kTouched | cls;
+    node->value[lin] = value;
+    node->parent[lin] = kNoParent;
+    if (isSite(cls) && raise == 0) {
+      seeds_.push_back({node, lin, 0});
+    } else if (propagates(cls)) {
+      tentative_.push_back({node, lin, 0});
+    }
+  }
+
+  void classifyBlock(const BlockIndex& b, const TsdfLayer::BlockType* tsdf_block, Node* node) {
+    const VoxelIndex origin = b * kVoxelsPerSide;
+    const Span whole{origin.x(), origin.x() + kVoxelsPerSide - 1};
+    // Blocks clear of a sphere's surface by a voxel take their spans without asking rowSpan.
+    enum Relation { kClearOf, kWithin, kCrossing };
+    auto relation = [&](const Eigen::Vector3d& p, double r) {
+      if (nearestSquared(b, p) > square(r + voxel_size_)) return kClearOf;
+      if (r > voxel_size_ && farthestSquared(b, p) < square(r - voxel_size_)) return kWithin;
+      return kCrossing;
+    };
+    const Relation to_clear = relation(initial_, options_.clear_radius);
+    const Relation to_occupied = relation(position_, options_.occupied_radius);
+    auto spanOf = [&](Relation relation, const Eigen::Vector3d& p, double r2, int y, int z) {
+      return relation == kClearOf  ? Span{}
+             : relation == kWithin ? whole
+                                   : rowSpan(p, r2, y, z, voxel_size_);
+    };
+    int lin = 0;
+    for (int z = origin.z(); z < origin.z() + kVoxelsPerSide; ++z) {
+      for (int y = origin.y(); y < origin.y() + kVoxelsPerSide; ++y) {
+        const Span clear = spanOf(to_clear, initial_, rc2_, y, z);
+        const Span occupied = spanOf(to_occupied, position_, ro2_, y, z);
+        Classified unobserved[kVoxelsPerSide];
+        for (int i = 0; i < kVoxelsPerSide; ++i) {
+          unobserved[i] = unobservedClass(origin.x() + i, clear, occupied);
+        }
+        const TsdfVoxel* row = tsdf_block != nullptr ? &tsdf_block->voxels[lin] : nullptr;
+        for (int i = 0; i < kVoxelsPerSide; ++i, ++lin) {
+          const Classified c = row != nullptr ? classify(row[i], unobserved[i]) : unobserved[i];
+          if (!unchanged(node, lin, c)) reclassify(node, b, lin, c);
+        }
+      }
+    }
+  }
+
+  // Reclassifies the voxels in the occupied sphere around a but not in the one around b: those
+  // that left it (a = the previous position) or entered it (a = the current one).
+  void sphereDifference(const TsdfLayer& tsdf, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    const double reach = options_.occupied_radius + voxel_size_;
+    const BlockIndex lo = blockOfVoxel(voxelOf((a.array() - reach).matrix()));
+    const BlockIndex hi = blockOfVoxel(voxelOf((a.array() + reach).matrix()));
+    const int width = hi.x() - lo.x() + 1;
+    for (int bz = lo.z(); bz <= hi.z(); ++bz) {
+      for (int by = lo.y(); by <= hi.y(); ++by) {
+        // The blocks along x, looked up once for their 256 rows of voxels.
+        bool looked_up = false;
+        for (int z = kVoxelsPerSide * bz; z < kVoxelsPerSide * (bz + 1); ++z) {
+          // Only rows through the sphere's disc at this z (one voxel wider against rounding;
+          // rowSpan decides).
+          const double dz2 = square(centre(z, voxel_size_) - a.z());
+          if (!(dz2 <= ro2_)) continue;
+          const double h = std::sqrt(ro2_ - dz2);
+          const int y0 = std::max(kVoxelsPerSide * by,
+                                  static_cast<int>(std::floor((a.y() - h) / voxel_size_)) - 1);
+          const int y1 = std::min(kVoxelsPerSide * (by + 1) - 1,
+                                  static_cast<int>(std::floor((a.y() + h) / voxel_size_)) + 1);
+          for (int y = y0; y <= y1; ++y) {
+            const Span in_a = rowSpan(a, ro2_, y, z, voxel_size_);
+            if (in_a.empty()) continue;
+            const Span in_b = rowSpan(b, ro2_, y, z, voxel_size_);
+            if (in_b.lo <= in_a.lo && in_a.hi <= in_b.hi) continue;
+            const Span clear = rowSpan(initial_, rc2_, y, z, voxel_size_);
+            const Span& occupied = a == position_ ? in_a : in_b;
+            if (!looked_up) {
+              row_nodes_.resize(width);
+              row_tsdf_.resize(width);
+              for (int i = 0; i < width; ++i) {
+                row_nodes_[i] = find(BlockIndex(lo.x() + i, by, bz));
+                row_tsdf_[i] = tsdf.block(BlockIndex(lo.x() + i, by, bz));
+              }
+              looked_up = true;
+            }
+            forEachInDifference(in_a, in_b, [&](int x0, int x1) {
+              for (int x = x0; x <= x1; ++x) {
+                const int i = (x >> 4) - lo.x();
+                const int lin = (x & 15) + kVoxelsPerSide * ((y & 15) + kVoxelsPerSide * (z & 15));
+                const Classified unobserved = unobservedClass(x, clear, occupied);
+                const Classified c = row_tsdf_[i] != nullptr
+                                         ? classify(row_tsdf_[i]->voxels[lin], unobserved)
+                                         : unobserved;
+                if (!unchanged(row_nodes_[i], lin, c)) {
+                  reclassify(row_nodes_[i], BlockIndex(lo.x() + i, by, bz), lin, c);
+                }
+              }
+            });
+          }
+        }
+      }
+    }
+  }
+
+  // Queues a free or inside voxel with its value. Values are never negative, so their bits order
+  // them as the floats do.
+  void push(float value, Node* node, int lin) {
+    queue_.push(std::bit_cast<uint32_t>(value), node->id << 12 | static_cast<uint32_t>(lin));
+  }
+
+  // Offers a free or inside voxel a path of length `length` through the neighbour in direction
+  // `dir` (seen from the voxel).
+  [[gnu::always_inline]] void offer(Node* node, int lin, float length, int dir) {
+    const float candidate = std::max(0.0f, length);
+    if (candidate < node->value[lin]) lower(node, lin, candidate, dir);
+  }
+  void lower(Node* node, int lin, float candidate, int dir) {
+    touch(node, lin);
+    node->value[lin] = candidate;
+    node->parent[lin] = static_cast<uint8_t>(dir);
+    push(candidate, node, lin);
+  }
+
+  // Invalidates child n of raised voxel r, in direction d from r, or re-evaluates it from r's
+  // value as a source (`source`).
+  void raiseChild(const VoxelRef& r, int d, Node* n, int l, float source) {
+    float value = max_;
+    if (r.raise & kReevaluate) {
+      value = std::min(max_, std::max(0.0f, source + edge_[d]));
+      if (value == n->value[l]) return;  // and so is its subtree
+    }
+    touch(n, l);
+    n->value[l] = value;
+    if (value == max_) n->parent[l] = kNoParent;
+    raise_.push_back(
+        {n, l, static_cast<uint8_t>(sideOf(n->state[l] & kClassMask) | (r.raise & kReevaluate))});
+    tentative_.push_back({n, l, 0});
+  }
+
+  void propagate(bool incremental) {
+    // Raise: every free or inside voxel whose shortest path ran through a changed voxel loses it
+    // (invalidated: no parent, max_distance) or, below a site whose value grew, keeps it with the
+    // longer length. Parents come before children, and an invalidated voxel drops its parent, so
+    // none is visited twice.
+    // A changed site also seeds the lower wavefront here, in the same pass over its neighbours.
+    for (size_t i = 0; i < raise_.size(); ++i) {
+      const VoxelRef r = raise_[i];
+      if (!nearPropagating(r.node, r.lin)) continue;
+      const float from_value = r.node->value[r.lin];
+      if (isSite(r.node->state[r.lin] & kClassMask)) {
+        forEachNeighbour(r.node, r.lin, [&](int d, Node* n, int l) {
+          const uint8_t cls = n->state[l] & kClassMask;
+          if (!propagates(cls)) return;
+          const float source = cls == kInside ? -from_value : from_value;
+          if ((sideOf(cls) & r.raise) != 0 && n->parent[l] == 25 - d) {
+            raiseChild(r, d, n, l, source);
+          } else {
+            offer(n, l, source + edge_[d], 25 - d);
+          }
+        });
+      } else {
+        // Only free and inside voxels have parents, and a child is on its parent's side.
+        forEachNeighbour(r.node, r.lin, [&](int d, Node* n, int l) {
+          if (n->parent[l] == 25 - d) raiseChild(r, d, n, l, from_value);
+        });
+      }
+    }
+    // Lower, seeded by the other new sites...
+    for (const VoxelRef& s : seeds_) {
+      if (!nearPropagating(s.node, s.lin)) continue;
+      const float v = s.node->value[s.lin];
+      forEachNeighbour(s.node, s.lin, [&](int d, Node* n, int l) {
+        const uint8_t cls = n->state[l] & kClassMask;
+        if (cls == kFree) {
+          offer(n, l, v + edge_[d], 25 - d);
+        } else if (cls == kInside) {
+          offer(n, l, -v + edge_[d], 25 - d);
+        }
+      });
+    }
+    // ... and by the best of the untouched neighbours of every invalidated or reclassified voxel
+    // (from scratch there are none).
+    if (incremental) {
+      for (const VoxelRef& t : tentative_) {
+        const uint8_t cls = t.node->state[t.lin] & kClassMask;
+        float best = t.node->value[t.lin];
+        int best_dir = -1;
+        forEachNeighbour(t.node, t.lin, [&](int d, Node* n, int l) {
+          const uint8_t other = n->state[l] & kClassMask;
+          float source;
+          if (other == cls) {
+            source = n->value[l];
+          } else if (isSite(other)) {
+            source = cls == kFree ? n->value[l] : -n->value[l];
+          } else {
+            return;
+          }
+          const float candidate = std::max(0.0f, source + edge_[d]);
+          if (candidate < best) {
+            best = candidate;
+            best_dir = d;
+          }
+        });
+        if (best_dir >= 0) {
+          t.node->value[t.lin] = best;
+          t.node->parent[t.lin] = static_cast<uint8_t>(best_dir);
+          push(best, t.node, t.lin);
+        }
+      }
+    }
+    // Dijkstra: a voxel leaves the queue with its final value and passes it on.
+    while (!queue_.empty()) {
+      uint32_t key;
+      const uint32_t voxel = queue_.pop(key);
+      const float value = std::bit_cast<float>(key);
+      Node* node = by_id_[voxel >> 12];
+      const int lin = static_cast<int>(voxel & 4095);
+      if (node->value[lin] != value) continue;  // lowered again since
+      const uint8_t cls = node->state[lin] & kClassMask;
+      forEachNeighbour(node, lin, [&](int d, Node* n, int l) {
+        if ((n->state[l] & kClassMask) == cls) offer(n, l, value + edge_[d], 25 - d);
+      });
+    }
+  }
+
+  static EsdfVoxel esdfVoxel(uint8_t cls, float value) {
+    switch (cls) {
+      case kFree:
+        return {value, true, false};
+      case kInside:
+        return {-value, true, false};
+      case kSurface:
+        return {value, true, true};
+      case kOccupied:
+        return {value, false, true};
+      default:
+        return {};
+    }
+  }
+
+  // Writes the voxels that changed to esdf, allocating and removing blocks, and reports them.
+  EsdfUpdateResult finish(EsdfLayer& esdf) {
+    EsdfUpdateResult result;
+    for (const Touched& t : touched_) {
+      uint8_t& state = t.node->state[t.lin];
+      state &= ~kTouched;
+      if (state == t.cls &&
+          std::bit_cast<uint32_t>(t.node->value[t.lin]) == std::bit_cast<uint32_t>(t.value)) {
+        continue;
+      }
+      ++result.voxels_updated;
+      if (t.node->changed_in_call != call_) {
+        t.node->changed_in_call = call_;
+        changed_nodes_.push_back(t.node);
+      }
+    }
+    for (Node* node : changed_nodes_) {
+      if (node->known == 0) {
+        esdf.removeBlock(node->index);
+        result.removed_blocks.push_back(node->index);
+        node->out = nullptr;
+      } else {
+        node->out = &esdf.allocateBlock(node->index);
+        result.changed_blocks.push_back(node->index);
+      }
+    }
+    for (const Touched& t : touched_) {
+      if (t.node->changed_in_call == call_ && t.node->out != nullptr) {
+        t.node->out->voxels[t.lin] = esdfVoxel(t.node->state[t.lin], t.node->value[t.lin]);
+      }
+    }
+    for (Node* node : changed_nodes_) {
+      if (node->known == 0) erase(node);
+    }
+    touched_.clear();
+    std::sort(result.changed_blocks.begin(), result.changed_blocks.end(), indexLess);
+    std::sort(result.removed_blocks.begin(), result.removed_blocks.end(), indexLess);
+    return result;
+  }
+
+  EsdfIntegratorOptions options_;
+  float max_ = 0;
+  float min_weight_ = 0;
+  // Set by recompute() from the voxel size.
+  double voxel_size_ = 0;
+  float band_ = 0;  // [m], compared with float TSDF distances
+  double rc2_ = 0;
+  double ro2_ = 0;
+  std::array<float, 26> edge_{};
+
+  bool has_initial_ = false;
+  Eigen::Vector3d initial_ = Eigen::Vector3d::Zero();
+  bool built_ = false;  // nodes_ hold the state of the last call's result
+  Eigen::Vector3d position_ = Eigen::Vector3d::Zero();
+  std::unordered_map<BlockIndex, std::unique_ptr<Node>, IndexHash> nodes_;
+  const std::unique_ptr<Node> none_ = std::make_unique<Node>(BlockIndex::Zero(), nullptr);
+  // Nodes by id (queue entries name them so), and the ids of erased nodes for reuse.
+  std::vector<Node*> by_id_;
+  std::vector<uint32_t> free_ids_;
+
+  // Per-call work lists, kept to reuse their memory.
+  uint64_t call_ = 0;
+  std::vector<Touched> touched_;
+  std::vector<VoxelRef> raise_;
+  std::vector<VoxelRef> seeds_;
+  std::vector<VoxelRef> tentative_;
+  MonotoneQueue queue_;
+  std::vector<Node*> changed_nodes_;
+  std::vector<Node*> row_nodes_;
+  std::vector<const TsdfLayer::BlockType*> row_tsdf_;
+};
+
+EsdfIntegrator::EsdfIntegrator(EsdfIntegratorOptions options)
+    : impl_(std::make_unique<Impl>(options)) {}
+EsdfIntegrator::~EsdfIntegrator() = default;
+EsdfIntegrator::EsdfIntegrator(EsdfIntegrator&&) noexcept = default;
+EsdfIntegrator& EsdfIntegrator::operator=(EsdfIntegrator&&) noexcept = default;
+
+const EsdfIntegratorOptions& EsdfIntegrator::options() const {
+  return impl_->options();
+}
+
+void EsdfIntegrator::setInitialPosition(const Eigen::Vector3d& p) {
+  impl_->setInitialPosition(p);
+}
+
+EsdfUpdateResult EsdfIntegrator::update(const TsdfLayer& tsdf,
+                                        const std::vector<BlockIndex>& changed_tsdf_blocks,
+                                        const Eigen::Vector3d& current_position, EsdfLayer& esdf) {
+  return impl_->update(tsdf, changed_tsdf_blocks, current_position, esdf);
+}
+
+EsdfUpdateResult EsdfIntegrator::recompute(const TsdfLayer& tsdf,
+                                           const Eigen::Vector3d& current_position,
+                                           EsdfLayer& esdf) {
+  return impl_->recompute(tsdf, current_position, esdf);
+}
+
+}  // namespace thicket::mapper

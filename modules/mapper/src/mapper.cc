@@ -1,0 +1,116 @@
+#include "thicket/mapper/mapper.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace thicket::mapper {
+
+void MapperOptions::declare(Params& p) {
+  p("voxel_size", voxel_size, "edge of a voxel [m]", Range::between(0.01, 2.0));
+  p.group("tsdf", tsdf, "TSDF integration");
+  p.group("esdf", esdf, "ESDF and the unknown-space policy");
+  p("max_pose_gap_us", poses.max_interpolation_gap_us,
+    "widest gap in the pose stream that a frame's pose is interpolated across [us]",
+    Range::positive());
+  p("pose_tolerance_us", poses.tolerance_us,
+    "a frame this close to a pose that cannot be interpolated takes that pose; 0 keeps replay "
+    "deterministic [us]",
+    Range::atLeast(0));
+  p("pose_history_us", poses.max_age_us, "how long poses are kept [us]", Range::positive());
+  p("max_pending_frames", max_pending_frames, "frames kept waiting for their pose",
+    Range::between(1, 1000));
+}
+
+Mapper::Mapper(MapperOptions options, std::function<double()> now_ms)
+    : options_(options),
+      now_ms_(now_ms ? std::move(now_ms) : [] { return 0.0; }),
+      tsdf_integrator_(options.tsdf),
+      esdf_integrator_(options.esdf),
+      tsdf_(options.voxel_size),
+      esdf_(options.voxel_size),
+      poses_(options.poses) {
+  if (options.max_pending_frames < 1) {
+    throw std::invalid_argument("Mapper: max_pending_frames must be at least 1");
+  }
+}
+
+std::optional<std::string> Mapper::addPose(int64_t utime, const Pose& world_T_body) {
+  if (auto refused = poses_.add(utime, world_T_body)) return refused;
+  if (!has_initial_position_) {
+    esdf_integrator_.setInitialPosition(world_T_body.position);
+    has_initial_position_ = true;
+  }
+  return std::nullopt;
+}
+
+FrameOutcome Mapper::refuse(int64_t utime, std::string reason) {
+  ++frames_refused_;
+  return {FrameOutcome::Status::kRefused, utime, std::move(reason)};
+}
+
+FrameOutcome Mapper::addFrame(DepthImage frame) {
+  const int64_t utime = frame.utime;
+  if (utime <= last_frame_utime_) {
+    return refuse(utime, "frame time " + std::to_string(utime) +
+                             " is not after the previous frame's " +
+                             std::to_string(last_frame_utime_));
+  }
+  last_frame_utime_ = utime;
+  pending_.push_back(std::move(frame));
+  if (static_cast<int>(pending_.size()) > options_.max_pending_frames) {
+    const int64_t dropped = pending_.front().utime;
+    pending_.pop_front();
+    // The oldest frame gives way; the caller learns of it through integrateReady's outcomes,
+    // but this frame's own outcome is what the caller asked about.
+    dropped_.push_back(refuse(dropped, "waited too long for a pose (" +
+                                           std::to_string(options_.max_pending_frames) +
+                                           " frames pending)"));
+  }
+  return {FrameOutcome::Status::kPending, utime, "waiting for the pose at its time"};
+}
+
+std::vector<FrameOutcome> Mapper::integrateReady(std::vector<MapRevisionUpdate>& updates) {
+  std::vector<FrameOutcome> outcomes = std::move(dropped_);
+  dropped_.clear();
+  while (!pending_.empty()) {
+    const DepthImage& frame = pending_.front();
+    const PoseLookup lookup = poses_.lookup(frame.utime);
+    if (lookup.status == PoseLookup::Status::kNotYet ||
+        lookup.status == PoseLookup::Status::kEmpty) {
+      break;  // later frames need later poses
+    }
+    if (!lookup.ok()) {
+      outcomes.push_back(refuse(frame.utime, "no pose at the frame's time: " + lookup.reason));
+      pending_.pop_front();
+      continue;
+    }
+    MapRevisionUpdate update;
+    update.utime = frame.utime;
+    const Pose world_T_camera = lookup.pose * frame.camera_in_body;
+    const double start = now_ms_();
+    TsdfIntegrationResult tsdf;
+    try {
+      tsdf = tsdf_integrator_.integrate(frame, world_T_camera, tsdf_);
+    } catch (const std::invalid_argument& e) {
+      outcomes.push_back(refuse(frame.utime, e.what()));  // the layer is unchanged
+      pending_.pop_front();
+      continue;
+    }
+    const double integrated = now_ms_();
+    EsdfUpdateResult esdf =
+        esdf_integrator_.update(tsdf_, tsdf.changed_blocks, lookup.pose.position, esdf_);
+    update.esdf_ms = now_ms_() - integrated;
+    update.tsdf_ms = integrated - start;
+    update.tsdf_changed = std::move(tsdf.changed_blocks);
+    update.esdf_changed = std::move(esdf.changed_blocks);
+    update.esdf_removed = std::move(esdf.removed_blocks);
+    update.revision = ++revision_;
+    utime_ = frame.utime;
+    outcomes.push_back({FrameOutcome::Status::kIntegrated, frame.utime, ""});
+    updates.push_back(std::move(update));
+    pending_.pop_front();
+  }
+  return outcomes;
+}
+
+}  // namespace thicket::mapper

@@ -1,0 +1,334 @@
+#include "thicket/mapper/tsdf_integrator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <unordered_set>
+
+namespace thicket::mapper {
+namespace {
+
+using Method = TsdfIntegratorOptions::Method;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// What one pixel says about the voxels on its line of sight, in the method's distance metric
+// (optical z for the projective method, range along the ray for the ray caster).
+struct PixelMeasurement {
+  double distance = kInf;  // to the return; +inf when none was seen
+  double max_voxel = 0;    // voxels farther than this are not updated
+  double weight = 0;       // 0: the pixel says nothing
+};
+
+// The per-voxel update rule shared by both methods (see the header).
+class VoxelUpdater {
+ public:
+  VoxelUpdater(double voxel_size, double truncation, double max_weight)
+      : voxel_size_(voxel_size), truncation_(truncation), max_weight_(max_weight) {}
+
+  double truncation() const { return truncation_; }
+
+  // Applies the measurement when the voxel is within the truncation behind the surface; returns
+  // whether it was applied, and sets changed when the voxel's stored values differ afterwards.
+  bool update(TsdfVoxel& voxel, double sdf, double weight, bool& changed) const {
+    if (!(sdf > -truncation_)) return false;
+    if (sdf < -voxel_size_) weight *= (truncation_ + sdf) / (truncation_ - voxel_size_);
+    sdf = std::min(sdf, truncation_);
+    // In double, then rounded once: repeated equal measurements leave the distance bit for bit
+    // unchanged, so saturated voxels do not count as changed.
+    const double old_weight = voxel.weight;
+    const double sum = old_weight + weight;
+    const auto distance = static_cast<float>((old_weight * voxel.distance + weight * sdf) / sum);
+    const auto new_weight = static_cast<float>(std::min(sum, max_weight_));
+    if (distance != voxel.distance || new_weight != voxel.weight) {
+      voxel.distance = distance;
+      voxel.weight = new_weight;
+      changed = true;
+    }
+    return true;
+  }
+
+ private:
+  double voxel_size_;
+  double truncation_;
+  double max_weight_;
+};
+
+double measurementWeight(double depth) {
+  const double z = std::max(depth, TsdfIntegrator::kMinWeightDepth);
+  return 1.0 / (z * z);
+}
+
+void validate(const DepthImage& image, const Pose& world_T_camera) {
+  if (const auto camera = image.camera.validated(); !camera) {
+    throw std::invalid_argument("TsdfIntegrator: " + camera.error());
+  }
+  const size_t pixels = static_cast<size_t>(image.camera.width) * image.camera.height;
+  if (image.depth.size() != pixels) {
+    throw std::invalid_argument("TsdfIntegrator: the image has " +
+                                std::to_string(image.depth.size()) + " depths for " +
+                                std::to_string(pixels) + " pixels");
+  }
+  if (!(std::isfinite(image.min_range) && std::isfinite(image.max_range) && image.min_range >= 0 &&
+        image.max_range > image.min_range)) {
+    throw std::invalid_argument("TsdfIntegrator: invalid range limits [" +
+                                std::to_string(image.min_range) + ", " +
+                                std::to_string(image.max_range) + "]");
+  }
+  const Eigen::Quaterniond& q = world_T_camera.orientation;
+  if (!world_T_camera.position.allFinite() || !q.coeffs().allFinite() ||
+      std::abs(q.norm() - 1) > 1e-3) {
+    throw std::invalid_argument(
+        "TsdfIntegrator: the camera pose is not finite with a unit quaternion");
+  }
+}
+
+// Every pixel's measurement; along_ray converts depths to ranges along the pixel's ray. Throws on
+// negative or non-finite depths, before anything is integrated.
+std::vector<PixelMeasurement> measurePixels(const DepthImage& image,
+                                            const TsdfIntegratorOptions& options, bool along_ray) {
+  const PinholeCamera& camera = image.camera;
+  const double range = options.max_integration_range;
+  const double clearing_weight = measurementWeight(range);
+  std::vector<PixelMeasurement> pixels(image.depth.size());
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const size_t i = static_cast<size_t>(v) * camera.width + u;
+      const double depth = image.depth[i];
+      if (!(std::isfinite(depth) && depth >= 0)) {
+        throw std::invalid_argument("TsdfIntegrator: pixel (" + std::to_string(u) + ", " +
+                                    std::to_string(v) + ") has depth " + std::to_string(depth));
+      }
+      PixelMeasurement& m = pixels[i];
+      if (depth > 0 && depth < image.min_range) continue;
+      const bool returned = depth > 0 && depth <= image.max_range;
+      const double scale = along_ray ? camera.backProject(u, v, 1.0).norm() : 1.0;
+      const double distance = returned ? depth * scale : kInf;
+      if (distance <= range) {
+        m = {distance, kInf, measurementWeight(depth)};
+      } else {
+        m = {distance, range, clearing_weight};
+      }
+    }
+  }
+  return pixels;
+}
+
+// Blocks whose voxel centres may lie in the frustum up to max_depth, in indexLess order.
+std::vector<BlockIndex> frustumBlocks(const PinholeCamera& camera, const Pose& world_T_camera,
+                                      const Pose& camera_T_world, const TsdfLayer& layer,
+                                      double max_depth) {
+  const double w = camera.width - 0.5;
+  const double h = camera.height - 0.5;
+  Eigen::Vector3d lo = world_T_camera.position;
+  Eigen::Vector3d hi = lo;
+  for (const auto& [u, v] : {std::pair{-0.5, -0.5}, {w, -0.5}, {-0.5, h}, {w, h}}) {
+    const Eigen::Vector3d corner = world_T_camera.transform(camera.backProject(u, v, max_depth));
+    lo = lo.cwiseMin(corner);
+    hi = hi.cwiseMax(corner);
+  }
+  const BlockIndex first = layer.blockIndex(lo);
+  const BlockIndex last = layer.blockIndex(hi);
+  // The sphere around a block's voxel centres, a hair larger so rounding cannot cull a voxel.
+  const double half_span = 0.5 * (kVoxelsPerSide - 1) * layer.voxelSize();
+  const double radius = std::sqrt(3.0) * half_span * (1 + 1e-9);
+  std::vector<BlockIndex> blocks;
+  for (int x = first.x(); x <= last.x(); ++x) {
+    for (int y = first.y(); y <= last.y(); ++y) {
+      for (int z = first.z(); z <= last.z(); ++z) {
+        const BlockIndex b(x, y, z);
+        const Eigen::Vector3d center =
+            layer.voxelCenter(voxelOfBlock(b, 0)) + Eigen::Vector3d::Constant(half_span);
+        if (camera.sphereIntersectsFrustum(camera_T_world.transform(center), radius, 0.0,
+                                           max_depth)) {
+          blocks.push_back(b);
+        }
+      }
+    }
+  }
+  return blocks;
+}
+
+TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& world_T_camera,
+                                          const TsdfIntegratorOptions& options,
+                                          const VoxelUpdater& updater, TsdfLayer& layer) {
+  const std::vector<PixelMeasurement> pixels = measurePixels(image, options, false);
+  const PinholeCamera& camera = image.camera;
+  const Pose camera_T_world = world_T_camera.inverse();
+  // No voxel beyond this is updated: surfaces end at the integration range, plus the truncation
+  // behind them.
+  const double max_depth = options.max_integration_range + updater.truncation();
+  const Eigen::Matrix3d camera_R_world = camera_T_world.orientation.toRotationMatrix();
+  const Eigen::Matrix3d steps = camera_R_world * layer.voxelSize();  // column a: one voxel along a
+
+  TsdfIntegrationResult result;
+  // New blocks are filled here first and allocated only if some voxel was updated.
+  std::vector<TsdfVoxel> scratch(kVoxelsPerBlock);
+  for (const BlockIndex& b :
+       frustumBlocks(camera, world_T_camera, camera_T_world, layer, max_depth)) {
+    TsdfLayer::BlockType* block = layer.block(b);
+    TsdfVoxel* voxels = block ? block->voxels.data() : scratch.data();
+    const Eigen::Vector3d first = camera_T_world.transform(layer.voxelCenter(voxelOfBlock(b, 0)));
+    int64_t updated = 0;
+    bool changed = false;
+    int linear = 0;
+    for (int k = 0; k < kVoxelsPerSide; ++k) {
+      const Eigen::Vector3d slice = first + k * steps.col(2);
+      for (int j = 0; j < kVoxelsPerSide; ++j) {
+        const Eigen::Vector3d line = slice + j * steps.col(1);
+        for (int i = 0; i < kVoxelsPerSide; ++i, ++linear) {
+          const Eigen::Vector3d p = line + i * steps.col(0);
+          const double z = p.z();
+          if (!(z > 0 && z <= max_depth)) continue;
+          // Pixel centres sit at integer coordinates, so the nearest pixel is the integer part
+          // of the projection plus one half.
+          const double column = camera.fx * p.x() / z + camera.cx + 0.5;
+          const double row = camera.fy * p.y() / z + camera.cy + 0.5;
+          if (!(column >= 0 && column < camera.width && row >= 0 && row < camera.height)) continue;
+          const PixelMeasurement& m =
+              pixels[static_cast<size_t>(row) * camera.width + static_cast<size_t>(column)];
+          if (m.weight == 0 || z > m.max_voxel) continue;
+          if (updater.update(voxels[linear], m.distance - z, m.weight, changed)) ++updated;
+        }
+      }
+    }
+    if (updated == 0) continue;
+    if (!block) {
+      std::copy(scratch.begin(), scratch.end(), layer.allocateBlock(b).voxels.begin());
+      std::fill(scratch.begin(), scratch.end(), TsdfVoxel{});
+    }
+    result.voxels_updated += updated;
+    if (changed) result.changed_blocks.push_back(b);
+  }
+  return result;
+}
+
+// One axis of an Amanatides-Woo voxel walk along a ray from the origin.
+struct AxisWalk {
+  int voxel;           // the current voxel's coordinate
+  int step;            // +1 or -1
+  double t_next;       // range at which the ray crosses into the next voxel along this axis
+  double t_delta;      // range between two such crossings
+  double center_step;  // how far a step moves the voxel centre's distance along the ray
+
+  AxisWalk(int origin_voxel, double origin_in_voxels, double dir, double voxel_size)
+      : voxel(origin_voxel),
+        step(dir > 0 ? 1 : -1),
+        t_next(kInf),
+        t_delta(kInf),
+        center_step(voxel_size * std::abs(dir)) {
+    if (dir != 0) {
+      const double boundary = origin_voxel + (dir > 0 ? 1 : 0);
+      t_next = (boundary - origin_in_voxels) * voxel_size / dir;
+      t_delta = voxel_size / std::abs(dir);
+    }
+  }
+};
+
+TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& world_T_camera,
+                                       const TsdfIntegratorOptions& options,
+                                       const VoxelUpdater& updater, TsdfLayer& layer) {
+  const std::vector<PixelMeasurement> pixels = measurePixels(image, options, true);
+  const PinholeCamera& camera = image.camera;
+  const double voxel_size = layer.voxelSize();
+  const Eigen::Vector3d& origin = world_T_camera.position;
+  const Eigen::Vector3d origin_voxels = origin / voxel_size;
+  const VoxelIndex origin_voxel = layer.voxelIndex(origin);
+  const Eigen::Vector3d origin_center_offset = layer.voxelCenter(origin_voxel) - origin;
+
+  TsdfIntegrationResult result;
+  // Rays cross few blocks, and neighbouring rays the same ones: a block is looked up only when a
+  // ray enters it. changed_set lists each changed block once.
+  std::unordered_set<BlockIndex, IndexHash> changed_set;
+  BlockIndex cached_index = blockOfVoxel(origin_voxel);
+  TsdfLayer::BlockType* cached = layer.block(cached_index);
+  bool cached_changed = false;
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const PixelMeasurement& m = pixels[static_cast<size_t>(v) * camera.width + u];
+      if (m.weight == 0) continue;
+      const Eigen::Vector3d dir =
+          world_T_camera.orientation * camera.backProject(u, v, 1.0).normalized();
+      const double t_end = std::min(m.distance + updater.truncation(), m.max_voxel);
+      AxisWalk x(origin_voxel.x(), origin_voxels.x(), dir.x(), voxel_size);
+      AxisWalk y(origin_voxel.y(), origin_voxels.y(), dir.y(), voxel_size);
+      AxisWalk z(origin_voxel.z(), origin_voxels.z(), dir.z(), voxel_size);
+      double center_along_ray = origin_center_offset.dot(dir);
+      while (true) {
+        const BlockIndex b(x.voxel >> 4, y.voxel >> 4, z.voxel >> 4);
+        if (b != cached_index) {
+          cached_index = b;
+          cached = layer.block(b);
+          cached_changed = changed_set.contains(b);
+        }
+        const double sdf = m.distance - center_along_ray;
+        if (sdf > -updater.truncation()) {
+          if (!cached) cached = &layer.allocateBlock(b);
+          bool changed = false;
+          const int linear = (x.voxel & 15) + 16 * (y.voxel & 15) + 256 * (z.voxel & 15);
+          updater.update(cached->voxels[linear], sdf, m.weight, changed);
+          ++result.voxels_updated;
+          if (changed && !cached_changed) {
+            changed_set.insert(b);
+            cached_changed = true;
+          }
+        }
+        AxisWalk& next =
+            x.t_next <= y.t_next ? (x.t_next <= z.t_next ? x : z) : (y.t_next <= z.t_next ? y : z);
+        if (next.t_next > t_end) break;
+        next.voxel += next.step;
+        next.t_next += next.t_delta;
+        center_along_ray += next.center_step;
+      }
+    }
+  }
+  result.changed_blocks.assign(changed_set.begin(), changed_set.end());
+  std::sort(result.changed_blocks.begin(), result.changed_blocks.end(), indexLess);
+  return result;
+}
+
+}  // namespace
+
+void TsdfIntegratorOptions::declare(Params& p) {
+  std::string name = method == Method::kRaycast ? "raycast" : "projective";
+  p.choice("method", name, {"projective", "raycast"},
+           "projective: project voxels into the image (fast); raycast: walk each pixel's ray");
+  method = name == "raycast" ? Method::kRaycast : Method::kProjective;
+  p("truncation_voxels", truncation_voxels, "truncation distance [voxels]", Range::positive());
+  p("max_integration_range", max_integration_range,
+    "no surface is integrated and no space cleared beyond this [m]", Range::positive());
+  p("max_weight", max_weight, "voxel weights saturate here, so the map can still change",
+    Range::positive());
+}
+
+TsdfIntegrator::TsdfIntegrator(TsdfIntegratorOptions options) : options_(options) {
+  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
+  if (!positive(options_.truncation_voxels)) {
+    throw std::invalid_argument("TsdfIntegrator: truncation_voxels must be positive and finite");
+  }
+  if (!positive(options_.max_integration_range)) {
+    throw std::invalid_argument(
+        "TsdfIntegrator: max_integration_range must be positive and finite");
+  }
+  if (!positive(options_.max_weight)) {
+    throw std::invalid_argument("TsdfIntegrator: max_weight must be positive and finite");
+  }
+  if (options_.method != Method::kProjective && options_.method != Method::kRaycast) {
+    throw std::invalid_argument("TsdfIntegrator: unknown method");
+  }
+}
+
+TsdfIntegrationResult TsdfIntegrator::integrate(const DepthImage& image, const Pose& world_T_camera,
+                                                TsdfLayer& layer) const {
+  validate(image, world_T_camera);
+  const Pose pose{world_T_camera.position, world_T_camera.orientation.normalized()};
+  const VoxelUpdater updater(layer.voxelSize(), options_.truncation_voxels * layer.voxelSize(),
+                             options_.max_weight);
+  return options_.method == Method::kProjective
+             ? integrateProjective(image, pose, options_, updater, layer)
+             : integrateRaycast(image, pose, options_, updater, layer);
+}
+
+}  // namespace thicket::mapper

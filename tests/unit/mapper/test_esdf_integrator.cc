@@ -1,0 +1,646 @@
+#include "thicket/mapper/esdf_integrator.h"
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "thicket/common/params.h"
+
+namespace {
+
+using thicket::BlockIndex;
+using thicket::EsdfLayer;
+using thicket::EsdfVoxel;
+using thicket::indexLess;
+using thicket::kVoxelsPerBlock;
+using thicket::TsdfLayer;
+using thicket::TsdfVoxel;
+using thicket::VoxelIndex;
+using thicket::mapper::EsdfIntegrator;
+using thicket::mapper::EsdfIntegratorOptions;
+using thicket::mapper::EsdfUpdateResult;
+
+// Far from every test world: the unknown-space spheres stay out of the way there.
+const Eigen::Vector3d kFarAway(-100, -100, 50);
+
+// Vertical cylinders of unbounded height and the ground plane z = 0.
+struct Cylinder {
+  double x, y, radius;
+};
+struct World {
+  std::vector<Cylinder> cylinders;
+
+  double signedDistance(const Eigen::Vector3d& p) const {
+    double d = p.z();
+    for (const Cylinder& c : cylinders)
+      d = std::min(d, std::hypot(p.x() - c.x, p.y() - c.y) - c.radius);
+    return d;
+  }
+  // How many of the objects (ground included) contain p.
+  int containing(const Eigen::Vector3d& p) const {
+    int n = p.z() < 0;
+    for (const Cylinder& c : cylinders) n += std::hypot(p.x() - c.x, p.y() - c.y) < c.radius;
+    return n;
+  }
+};
+
+struct Box {
+  Eigen::Vector3d lo, hi;
+};
+
+template <class F>
+void forEachVoxel(const TsdfLayer& layer, const Box& box, F&& f) {
+  const VoxelIndex lo = layer.voxelIndex(box.lo);
+  const VoxelIndex hi = layer.voxelIndex(box.hi);
+  for (int z = lo.z(); z < hi.z(); ++z) {
+    for (int y = lo.y(); y < hi.y(); ++y) {
+      for (int x = lo.x(); x < hi.x(); ++x) f(VoxelIndex(x, y, z));
+    }
+  }
+}
+
+// Observes every voxel of the box as a perfect sensor would: weight 1, the true signed distance
+// clamped to +-truncation. With see_deep false, voxels deeper than the truncation behind a
+// surface stay as they were (a real TSDF never sees them). Adds the blocks it changed.
+void observe(TsdfLayer& tsdf, const World& world, const Box& box, double truncation, bool see_deep,
+             std::vector<BlockIndex>& changed) {
+  forEachVoxel(tsdf, box, [&](const VoxelIndex& v) {
+    const double d = world.signedDistance(tsdf.voxelCenter(v));
+    if (!see_deep && d < -truncation) return;
+    TsdfVoxel& voxel = tsdf.allocateVoxel(v);
+    voxel.distance = static_cast<float>(std::clamp(d, -truncation, truncation));
+    voxel.weight = 1;
+    changed.push_back(thicket::blockOfVoxel(v));
+  });
+}
+
+// Whole-layer equality: the same blocks, flags, and distances within tolerance.
+::testing::AssertionResult sameEsdf(const EsdfLayer& a, const EsdfLayer& b, double tolerance) {
+  const std::vector<BlockIndex> blocks = a.blockIndices();
+  if (blocks != b.blockIndices()) {
+    return ::testing::AssertionFailure()
+           << "block sets differ: " << a.numBlocks() << " vs " << b.numBlocks() << " blocks";
+  }
+  int64_t mismatches = 0;
+  std::string first;
+  for (const BlockIndex& index : blocks) {
+    const auto& va = a.block(index)->voxels;
+    const auto& vb = b.block(index)->voxels;
+    for (int i = 0; i < kVoxelsPerBlock; ++i) {
+      if (va[i].observed == vb[i].observed && va[i].fixed == vb[i].fixed &&
+          std::abs(va[i].distance - vb[i].distance) <= tolerance) {
+        continue;
+      }
+      if (mismatches++ == 0) {
+        const VoxelIndex v = thicket::voxelOfBlock(index, i);
+        first = "voxel (" + std::to_string(v.x()) + ", " + std::to_string(v.y()) + ", " +
+                std::to_string(v.z()) + "): " + std::to_string(va[i].distance) + " obs " +
+                std::to_string(va[i].observed) + " fixed " + std::to_string(va[i].fixed) + " vs " +
+                std::to_string(vb[i].distance) + " obs " + std::to_string(vb[i].observed) +
+                " fixed " + std::to_string(vb[i].fixed);
+      }
+    }
+  }
+  if (mismatches == 0) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << mismatches << " voxels differ, first " << first;
+}
+
+// A byte copy of a layer, to see exactly which blocks a call changed.
+using Snapshot = std::map<std::array<int, 3>, std::vector<uint64_t>>;
+
+Snapshot snapshot(const EsdfLayer& layer) {
+  Snapshot s;
+  for (const BlockIndex& index : layer.blockIndices()) {
+    std::vector<uint64_t>& bytes = s[{index.x(), index.y(), index.z()}];
+    for (const EsdfVoxel& v : layer.block(index)->voxels) {
+      bytes.push_back(uint64_t{std::bit_cast<uint32_t>(v.distance)} << 2 |
+                      uint64_t{v.observed} << 1 | uint64_t{v.fixed});
+    }
+  }
+  return s;
+}
+
+std::vector<BlockIndex> toIndices(const std::vector<std::array<int, 3>>& keys) {
+  std::vector<BlockIndex> out;
+  for (const auto& k : keys) out.emplace_back(k[0], k[1], k[2]);
+  std::sort(out.begin(), out.end(), indexLess);
+  return out;
+}
+
+// The result reports exactly the blocks that differ between the snapshots.
+void expectReportMatches(const Snapshot& before, const Snapshot& after,
+                         const EsdfUpdateResult& result) {
+  std::vector<std::array<int, 3>> changed, removed;
+  for (const auto& [key, bytes] : after) {
+    const auto it = before.find(key);
+    if (it == before.end() || it->second != bytes) changed.push_back(key);
+  }
+  for (const auto& [key, bytes] : before) {
+    if (!after.count(key)) removed.push_back(key);
+  }
+  EXPECT_EQ(result.changed_blocks, toIndices(changed));
+  EXPECT_EQ(result.removed_blocks, toIndices(removed));
+  EXPECT_EQ(result.voxels_updated > 0, !changed.empty() || !removed.empty());
+}
+
+// The length of the shortest 26-connected path along offset d in free space [voxels].
+double octile(const VoxelIndex& d) {
+  std::array<int, 3> a{std::abs(d.x()), std::abs(d.y()), std::abs(d.z())};
+  std::sort(a.begin(), a.end());
+  return a[0] * std::sqrt(3.0) + (a[1] - a[0]) * std::sqrt(2.0) + (a[2] - a[1]);
+}
+
+double percentile(std::vector<double> values, double q) {
+  std::sort(values.begin(), values.end());
+  return values[static_cast<size_t>(q * (values.size() - 1))];
+}
+
+double mean(const std::vector<double>& values) {
+  double sum = 0;
+  for (const double v : values) sum += v;
+  return sum / values.size();
+}
+
+double millisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+// ---------------------------------------------------------------------------------------------
+
+// The ESDF of a fully observed analytic world against its true signed distance.
+void checkGroundTruth(double voxel_size) {
+  const World world{
+      {{2.5, 3.0, 0.5}, {6.0, 2.5, 0.3}, {5.0, 6.5, 0.8}, {8.0, 7.5, 0.4}, {3.0, 8.0, 0.6}}};
+  const Box box{{0, 0, -0.6}, {10, 10, 2.4}};
+  const double truncation = 4 * voxel_size;
+  TsdfLayer tsdf(voxel_size);
+  std::vector<BlockIndex> changed;
+  observe(tsdf, world, box, truncation, /*see_deep=*/true, changed);
+
+  EsdfIntegratorOptions options;
+  EsdfIntegrator integrator(options);
+  integrator.setInitialPosition(kFarAway);
+  EsdfLayer esdf(voxel_size);
+  const auto start = std::chrono::steady_clock::now();
+  integrator.recompute(tsdf, kFarAway, esdf);
+  const double ms = millisecondsSince(start);
+
+  const float band = static_cast<float>(options.surface_band_voxels * voxel_size);
+  std::vector<double> free_errors, inside_errors;
+  forEachVoxel(tsdf, box, [&](const VoxelIndex& v) {
+    const Eigen::Vector3d c = tsdf.voxelCenter(v);
+    const double truth = world.signedDistance(c);
+    const EsdfVoxel* voxel = esdf.voxel(v);
+    ASSERT_NE(voxel, nullptr);
+    ASSERT_TRUE(voxel->observed);
+    EXPECT_EQ(voxel->fixed, std::abs(tsdf.voxel(v)->distance) <= band);
+    if (voxel->fixed) return;
+    if (truth >= options.max_distance) {
+      EXPECT_FLOAT_EQ(voxel->distance, options.max_distance);
+    } else if (truth > 0 && truth < options.max_distance - voxel_size) {
+      free_errors.push_back((voxel->distance - truth) / voxel_size);
+    } else if (truth < 0 && world.containing(c) == 1) {
+      // Where objects overlap, the minimum of their distances is not the distance to the union.
+      inside_errors.push_back((truth - voxel->distance) / voxel_size);
+    }
+  });
+  ASSERT_GT(free_errors.size(), 1000u);
+  ASSERT_GT(inside_errors.size(), 100u);
+  const double free_mean = mean(free_errors), free_p95 = percentile(free_errors, 0.95);
+  const double inside_mean = mean(inside_errors), inside_p95 = percentile(inside_errors, 0.95);
+  std::printf(
+      "voxel %.2f m: recompute %.1f ms, %zu blocks; error [voxels] free (%zu): mean %.3f p95 "
+      "%.3f min %.3f max %.3f; inside (%zu): mean %.3f p95 %.3f min %.3f max %.3f\n",
+      voxel_size, ms, esdf.numBlocks(), free_errors.size(), free_mean, free_p95,
+      percentile(free_errors, 0), percentile(free_errors, 1), inside_errors.size(), inside_mean,
+      inside_p95, percentile(inside_errors, 0), percentile(inside_errors, 1));
+  // Paths from a site carrying its exact distance never beat the straight line (triangle
+  // inequality), so the ESDF only overestimates.
+  EXPECT_GE(percentile(free_errors, 0), -1e-3);
+  EXPECT_LT(free_mean, 0.5);
+  EXPECT_LT(free_p95, 1.5);
+  EXPECT_GE(percentile(inside_errors, 0), -1e-3);
+  EXPECT_LT(inside_mean, 0.5);
+  EXPECT_LT(inside_p95, 1.5);
+}
+
+TEST(EsdfIntegrator, GroundTruthAt20cm) {
+  checkGroundTruth(0.2);
+}
+TEST(EsdfIntegrator, GroundTruthAt10cm) {
+  checkGroundTruth(0.1);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+// A random sequence of TSDF edits and vehicle moves; after each update() the layer must equal
+// recompute() and the report must name exactly the blocks that changed. Returns the final layer.
+Snapshot runRandomSequence(uint64_t seed, int steps, bool check) {
+  std::mt19937_64 rng(seed);
+  auto uniform = [&](double lo, double hi) {
+    return std::uniform_real_distribution<>(lo, hi)(rng);
+  };
+  const double vs = 0.2;
+  const double truncation = 4 * vs;
+  EsdfIntegratorOptions options;
+  // Spheres and saturation smaller than the 8 x 8 m world, so that all of them act in it.
+  options.max_distance = 1.2;
+  options.clear_radius = 1.0;
+  options.occupied_radius = 2.4;
+  World world;
+  for (int i = 0; i < 4; ++i)
+    world.cylinders.push_back({uniform(1, 7), uniform(1, 7), uniform(0.2, 0.6)});
+  auto cylinderBox = [&](const Cylinder& c) {
+    const double r = c.radius + truncation + vs;
+    return Box{{c.x - r, c.y - r, -1.0}, {c.x + r, c.y + r, 3.0}};
+  };
+  auto randomBox = [&]() {
+    const Eigen::Vector3d lo(uniform(-1, 7), uniform(-1, 7), uniform(-1, 2));
+    return Box{lo, lo + Eigen::Vector3d(uniform(0.5, 3), uniform(0.5, 3), uniform(0.5, 2))};
+  };
+
+  TsdfLayer tsdf(vs);
+  std::vector<BlockIndex> changed;
+  observe(tsdf, world, Box{{0, 0, -1}, {4, 8, 3}}, truncation, /*see_deep=*/false, changed);
+  Eigen::Vector3d position(2, 2, 1.5);
+  EsdfIntegrator integrator(options);
+  integrator.setInitialPosition(position);
+  EsdfIntegrator reference(options);
+  reference.setInitialPosition(position);
+  EsdfLayer esdf(vs);
+  integrator.update(tsdf, changed, position, esdf);
+
+  for (int step = 0; step < steps; ++step) {
+    changed.clear();
+    const int kind = std::uniform_int_distribution<>(0, 6)(rng);
+    switch (kind) {
+      case 0: {  // a new obstacle (lowers)
+        world.cylinders.push_back({uniform(0, 8), uniform(0, 8), uniform(0.2, 0.7)});
+        observe(tsdf, world, cylinderBox(world.cylinders.back()), truncation, false, changed);
+        break;
+      }
+      case 1: {  // an obstacle disappears (raises)
+        if (world.cylinders.empty()) break;
+        const size_t i = std::uniform_int_distribution<size_t>(0, world.cylinders.size() - 1)(rng);
+        const Box box = cylinderBox(world.cylinders[i]);
+        world.cylinders.erase(world.cylinders.begin() + i);
+        observe(tsdf, world, box, truncation, /*see_deep=*/true, changed);
+        break;
+      }
+      case 2: {  // sign flips and arbitrary values in one block
+        const std::vector<BlockIndex> blocks = tsdf.blockIndices();
+        if (blocks.empty()) break;
+        const BlockIndex b =
+            blocks[std::uniform_int_distribution<size_t>(0, blocks.size() - 1)(rng)];
+        auto& voxels = tsdf.block(b)->voxels;
+        for (int i = 0; i < 400; ++i) {
+          TsdfVoxel& v = voxels[std::uniform_int_distribution<>(0, kVoxelsPerBlock - 1)(rng)];
+          v.distance = i % 2 ? -v.distance : static_cast<float>(uniform(-truncation, truncation));
+        }
+        changed.push_back(b);
+        break;
+      }
+      case 3:  // reveal space, possibly in blocks never seen before
+        observe(tsdf, world, randomBox(), truncation, false, changed);
+        break;
+      case 4:  // forget space (weights to 0)
+        forEachVoxel(tsdf, randomBox(), [&](const VoxelIndex& v) {
+          if (TsdfVoxel* voxel = tsdf.voxel(v)) {
+            voxel->weight = 0;
+            changed.push_back(thicket::blockOfVoxel(v));
+          }
+        });
+        break;
+      case 5:  // re-integration noise near the vehicle: every site moves a little
+        forEachVoxel(tsdf,
+                     Box{(position.array() - 2.0).matrix(), (position.array() + 2.0).matrix()},
+                     [&](const VoxelIndex& v) {
+                       if (TsdfVoxel* voxel = tsdf.voxel(v)) {
+                         voxel->distance += static_cast<float>(uniform(-0.03, 0.03));
+                         changed.push_back(thicket::blockOfVoxel(v));
+                       }
+                     });
+        break;
+      default: {  // a whole TSDF block deleted
+        const std::vector<BlockIndex> blocks = tsdf.blockIndices();
+        if (blocks.empty()) break;
+        const BlockIndex b =
+            blocks[std::uniform_int_distribution<size_t>(0, blocks.size() - 1)(rng)];
+        tsdf.removeBlock(b);
+        changed.push_back(b);
+        break;
+      }
+    }
+    const double move = uniform(0, 1);
+    if (move < 0.6) {
+      position += Eigen::Vector3d(uniform(-0.5, 0.5), uniform(-0.5, 0.5), uniform(-0.2, 0.2));
+    } else if (move < 0.85) {
+      position = Eigen::Vector3d(uniform(0, 8), uniform(0, 8), uniform(0.5, 2.5));
+    }
+    const Snapshot before = check ? snapshot(esdf) : Snapshot{};
+    const EsdfUpdateResult result = integrator.update(tsdf, changed, position, esdf);
+    if (!check) continue;
+    SCOPED_TRACE("seed " + std::to_string(seed) + " step " + std::to_string(step) + " kind " +
+                 std::to_string(kind));
+    expectReportMatches(before, snapshot(esdf), result);
+    EsdfLayer expected(vs);
+    reference.recompute(tsdf, position, expected);
+    EXPECT_TRUE(sameEsdf(esdf, expected, 1e-5));
+  }
+  return snapshot(esdf);
+}
+
+TEST(EsdfIntegrator, IncrementalEqualsRecomputeOnRandomEdits) {
+  for (const uint64_t seed : {1, 2, 3}) runRandomSequence(seed, 25, /*check=*/true);
+}
+
+TEST(EsdfIntegrator, DeterministicBytes) {
+  EXPECT_EQ(runRandomSequence(7, 15, false), runRandomSequence(7, 15, false));
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(EsdfIntegrator, UnknownSpacePolicy) {
+  const double vs = 0.2;
+  const EsdfIntegratorOptions options;  // r_c 1.5, r_o 5, max 2
+  const TsdfLayer tsdf(vs);
+  // Off the voxel centres, so that no centre lies exactly on a sphere (where rounding decides).
+  const Eigen::Vector3d start(0.13, 0.07, 1.11);
+  EsdfIntegrator integrator(options);
+  integrator.setInitialPosition(start);
+  EsdfLayer esdf(vs);
+  integrator.update(tsdf, {}, start, esdf);
+  auto at = [&](const Eigen::Vector3d& p) { return esdf.voxel(esdf.voxelIndex(p)); };
+  auto isUnknown = [&](const Eigen::Vector3d& p) {
+    const EsdfVoxel* v = at(p);
+    return v == nullptr || (!v->observed && !v->fixed && v->distance == 0);
+  };
+  // Exactly the blocks with a voxel centre in r_o, and nothing but free voxels inside r_c and
+  // occupied ones between r_c and r_o.
+  auto expectSpheres = [&](const Eigen::Vector3d& position) {
+    std::set<std::array<int, 3>> expected;
+    const VoxelIndex lo = esdf.voxelIndex((position.array() - 6.0).matrix());
+    const VoxelIndex hi = esdf.voxelIndex((position.array() + 6.0).matrix());
+    for (int z = lo.z(); z <= hi.z(); ++z) {
+      for (int y = lo.y(); y <= hi.y(); ++y) {
+        for (int x = lo.x(); x <= hi.x(); ++x) {
+          const VoxelIndex v(x, y, z);
+          const Eigen::Vector3d c = esdf.voxelCenter(v);
+          const bool clear = (c - start).norm() <= options.clear_radius;
+          const bool occupied = !clear && (c - position).norm() <= options.occupied_radius;
+          if (clear || occupied) {
+            const BlockIndex b = thicket::blockOfVoxel(v);
+            expected.insert({b.x(), b.y(), b.z()});
+          }
+          const EsdfVoxel* voxel = esdf.voxel(v);
+          if (clear) {
+            ASSERT_NE(voxel, nullptr);
+            EXPECT_TRUE(voxel->observed && !voxel->fixed && voxel->distance > 0);
+          } else if (occupied) {
+            ASSERT_NE(voxel, nullptr);
+            EXPECT_TRUE(!voxel->observed && voxel->fixed && voxel->distance == 0);
+          }
+        }
+      }
+    }
+    std::set<std::array<int, 3>> actual;
+    for (const BlockIndex& b : esdf.blockIndices()) actual.insert({b.x(), b.y(), b.z()});
+    EXPECT_EQ(actual, expected);
+  };
+  // Inside r_c, the distance is the shortest 26-connected path to the occupied shell around it.
+  auto expectShellDistance = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& position) {
+    const VoxelIndex v = esdf.voxelIndex(p);
+    double best = options.max_distance;
+    for (int z = -12; z <= 12; ++z) {
+      for (int y = -12; y <= 12; ++y) {
+        for (int x = -12; x <= 12; ++x) {
+          const Eigen::Vector3d c = esdf.voxelCenter(v + VoxelIndex(x, y, z));
+          if ((c - start).norm() > options.clear_radius &&
+              (c - position).norm() <= options.occupied_radius) {
+            best = std::min(best, vs * octile(VoxelIndex(x, y, z)));
+          }
+        }
+      }
+    }
+    EXPECT_NEAR(at(p)->distance, best, 1e-5) << p.transpose();
+    return best;
+  };
+  expectSpheres(start);
+  // Next to the shell: one voxel; at the centre less than r_c + 1 voxel (a diagonal path to a
+  // shell voxel beats the 8 voxels along an axis).
+  EXPECT_NEAR(expectShellDistance(start + Eigen::Vector3d(1.4, 0, 0), start), 0.2, 1e-5);
+  EXPECT_NEAR(expectShellDistance(start + Eigen::Vector3d(0, -1.0, 0), start), 0.6, 1e-5);
+  const double at_start = expectShellDistance(start, start);
+  EXPECT_GT(at_start, options.clear_radius);
+  EXPECT_LT(at_start, options.clear_radius + vs);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<> uniform(-options.clear_radius, options.clear_radius);
+  for (int i = 0; i < 20; ++i) {
+    const Eigen::Vector3d offset(uniform(rng), uniform(rng), uniform(rng));
+    if (offset.norm() < options.clear_radius - vs) expectShellDistance(start + offset, start);
+  }
+  EXPECT_TRUE(at(start + Eigen::Vector3d(3, 0, 0))->fixed);
+  EXPECT_TRUE(isUnknown(start + Eigen::Vector3d(-5.4, 0, 0)));
+
+  // The vehicle moves 3 m along x: the occupied sphere follows it.
+  const Eigen::Vector3d moved = start + Eigen::Vector3d(3, 0, 0);
+  const Snapshot before = snapshot(esdf);
+  const EsdfUpdateResult result = integrator.update(tsdf, {}, moved, esdf);
+  expectReportMatches(before, snapshot(esdf), result);
+  EXPECT_FALSE(result.removed_blocks.empty());
+  expectSpheres(moved);
+  EXPECT_TRUE(isUnknown(start + Eigen::Vector3d(-4, 0, 0)));       // left the sphere
+  EXPECT_TRUE(at(start + Eigen::Vector3d(7.6, 0, 0))->fixed);      // entered it
+  EXPECT_NEAR(expectShellDistance(start, moved), at_start, 1e-5);  // r_c stays at the start
+  EsdfLayer expected(vs);
+  EsdfIntegrator reference(options);
+  reference.setInitialPosition(start);
+  reference.recompute(tsdf, moved, expected);
+  EXPECT_TRUE(sameEsdf(esdf, expected, 1e-5));
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(EsdfIntegrator, RaiseWhenAnObstacleDisappears) {
+  const double vs = 0.2;
+  const double truncation = 4 * vs;
+  const EsdfIntegratorOptions options;
+  World world{{{3.0, 3.0, 0.5}}};
+  const Box box{{0, 0, -0.6}, {6, 6, 3.0}};
+  TsdfLayer tsdf(vs);
+  std::vector<BlockIndex> changed;
+  observe(tsdf, world, box, truncation, true, changed);
+  EsdfIntegrator integrator(options);
+  integrator.setInitialPosition(kFarAway);
+  EsdfLayer esdf(vs);
+  integrator.update(tsdf, changed, kFarAway, esdf);
+  EsdfLayer original(vs);
+  EsdfIntegrator reference(options);
+  reference.setInitialPosition(kFarAway);
+  reference.recompute(tsdf, kFarAway, original);
+  const Eigen::Vector3d beside(3.1, 3.9, 1.7);  // 0.41 m from the cylinder, 1.7 m from the ground
+  const Eigen::Vector3d axis(3.1, 3.1, 1.7);    // 0.36 m inside it
+  EXPECT_NEAR(esdf.voxel(esdf.voxelIndex(beside))->distance, 0.41, 0.1);
+  EXPECT_LT(esdf.voxel(esdf.voxelIndex(axis))->distance, -0.3);
+
+  // Nothing changed: nothing to do.
+  EsdfUpdateResult result = integrator.update(tsdf, {}, kFarAway, esdf);
+  EXPECT_TRUE(result.changed_blocks.empty());
+  EXPECT_EQ(result.voxels_updated, 0);
+
+  // The cylinder disappears: distances around it grow to the ground's (raise) and its inside
+  // becomes free.
+  world.cylinders.clear();
+  changed.clear();
+  observe(tsdf, world, {{1.5, 1.5, -0.6}, {4.5, 4.5, 3.0}}, truncation, true, changed);
+  const Snapshot before = snapshot(esdf);
+  result = integrator.update(tsdf, changed, kFarAway, esdf);
+  expectReportMatches(before, snapshot(esdf), result);
+  EXPECT_NEAR(esdf.voxel(esdf.voxelIndex(beside))->distance, 1.7, 1e-5);
+  EXPECT_NEAR(esdf.voxel(esdf.voxelIndex(axis))->distance, 1.7, 1e-5);
+  EsdfLayer expected(vs);
+  reference.recompute(tsdf, kFarAway, expected);
+  EXPECT_TRUE(sameEsdf(esdf, expected, 1e-5));
+
+  // And back (lower): the original field again.
+  world.cylinders.push_back({3.0, 3.0, 0.5});
+  changed.clear();
+  observe(tsdf, world, {{1.5, 1.5, -0.6}, {4.5, 4.5, 3.0}}, truncation, true, changed);
+  integrator.update(tsdf, changed, kFarAway, esdf);
+  EXPECT_TRUE(sameEsdf(esdf, original, 1e-5));
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(EsdfIntegrator, RefusesBadInput) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto with = [](auto change) {
+    EsdfIntegratorOptions o;
+    change(o);
+    return o;
+  };
+  EXPECT_THROW(EsdfIntegrator(with([](auto& o) { o.max_distance = 0; })), std::invalid_argument);
+  EXPECT_THROW(EsdfIntegrator(with([&](auto& o) { o.clear_radius = nan; })), std::invalid_argument);
+  EXPECT_THROW(EsdfIntegrator(with([](auto& o) { o.occupied_radius = -1; })),
+               std::invalid_argument);
+  EXPECT_THROW(EsdfIntegrator(with([](auto& o) { o.surface_band_voxels = 0; })),
+               std::invalid_argument);
+  EXPECT_THROW(EsdfIntegrator(with([](auto& o) { o.min_weight = INFINITY; })),
+               std::invalid_argument);
+  EXPECT_NO_THROW(EsdfIntegrator(with([](auto& o) { o.occupied_radius = 1.0; })));
+
+  const TsdfLayer tsdf(0.2);
+  EsdfLayer esdf(0.2);
+  EsdfIntegrator integrator{EsdfIntegratorOptions{}};
+  EXPECT_THROW(integrator.update(tsdf, {}, Eigen::Vector3d::Zero(), esdf), std::logic_error);
+  EXPECT_THROW(integrator.recompute(tsdf, Eigen::Vector3d::Zero(), esdf), std::logic_error);
+  EXPECT_THROW(integrator.setInitialPosition(Eigen::Vector3d(nan, 0, 0)), std::invalid_argument);
+  integrator.setInitialPosition(Eigen::Vector3d::Zero());
+  EsdfLayer coarse(0.4);
+  EXPECT_THROW(integrator.update(tsdf, {}, Eigen::Vector3d::Zero(), coarse), std::invalid_argument);
+  EXPECT_THROW(integrator.update(tsdf, {}, Eigen::Vector3d(0, nan, 0), esdf),
+               std::invalid_argument);
+  EXPECT_THROW(integrator.update(tsdf, {}, Eigen::Vector3d(0, 0, 1e300), esdf),
+               std::invalid_argument);
+  EXPECT_EQ(esdf.numBlocks(), 0u);
+  integrator.update(tsdf, {}, Eigen::Vector3d::Zero(), esdf);
+  EXPECT_GT(esdf.numBlocks(), 0u);
+  esdf.allocateBlock(BlockIndex(100, 0, 0));
+  EXPECT_THROW(integrator.update(tsdf, {}, Eigen::Vector3d::Zero(), esdf), std::logic_error);
+
+  // The options load from YAML with the same validation.
+  EXPECT_THROW(thicket::loadParamsFromString<EsdfIntegratorOptions>("max_distance: -1\n", "t"),
+               thicket::ParamError);
+  EXPECT_EQ(
+      thicket::loadParamsFromString<EsdfIntegratorOptions>("clear_radius: 2.5\n", "t").clear_radius,
+      2.5);
+  EXPECT_NE(thicket::describeParams<EsdfIntegratorOptions>().find("occupied_radius"),
+            std::string::npos);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+// A forest flown through at 0.5 m per frame; each frame observes the voxels in a 90 x 74 deg,
+// 5 m view ahead (no occlusion) as a TSDF would. Prints the update() times; checks the end result.
+void flyThroughForest(double noise, const char* label) {
+  const double vs = 0.2;
+  const double truncation = 4 * vs;
+  std::mt19937_64 rng(11);
+  auto uniform = [&](double lo, double hi) {
+    return std::uniform_real_distribution<>(lo, hi)(rng);
+  };
+  World world;
+  for (int i = 0; i < 60; ++i)
+    world.cylinders.push_back({uniform(0, 24), uniform(0, 12), uniform(0.1, 0.5)});
+  TsdfLayer tsdf(vs);
+  EsdfLayer esdf(vs);
+  const EsdfIntegratorOptions options;
+  EsdfIntegrator integrator(options);
+  Eigen::Vector3d position(1, 6, 1.5);
+  integrator.setInitialPosition(position);
+  std::vector<double> times, blocks, updated;
+  for (int frame = 0; frame < 40; ++frame) {
+    position.x() += 0.5;
+    std::set<std::array<int, 3>> touched;
+    forEachVoxel(
+        tsdf, Box{(position.array() - 5.0).matrix(), (position.array() + 5.0).matrix()},
+        [&](const VoxelIndex& v) {
+          const Eigen::Vector3d ray = tsdf.voxelCenter(v) - position;
+          if (ray.x() <= 0.1 || ray.norm() > 5 || std::abs(ray.y()) > ray.x() ||
+              std::abs(ray.z()) > 0.75 * ray.x()) {
+            return;
+          }
+          const double d = world.signedDistance(tsdf.voxelCenter(v));
+          if (d < -truncation) return;
+          TsdfVoxel& voxel = tsdf.allocateVoxel(v);
+          const double measured = std::clamp(d + uniform(-noise, noise), -truncation, truncation);
+          voxel.distance =
+              static_cast<float>((voxel.distance * voxel.weight + measured) / (voxel.weight + 1));
+          voxel.weight += 1;
+          const BlockIndex b = thicket::blockOfVoxel(v);
+          touched.insert({b.x(), b.y(), b.z()});
+        });
+    std::vector<BlockIndex> changed;
+    for (const auto& b : touched) changed.emplace_back(b[0], b[1], b[2]);
+    const auto start = std::chrono::steady_clock::now();
+    const EsdfUpdateResult result = integrator.update(tsdf, changed, position, esdf);
+    if (frame > 0) {  // the first call recomputes
+      times.push_back(millisecondsSince(start));
+      blocks.push_back(static_cast<double>(changed.size()));
+      updated.push_back(static_cast<double>(result.voxels_updated));
+    }
+  }
+  EsdfLayer expected(vs);
+  EsdfIntegrator reference(options);
+  reference.setInitialPosition(Eigen::Vector3d(1, 6, 1.5));
+  const auto start = std::chrono::steady_clock::now();
+  reference.recompute(tsdf, position, expected);
+  const double recompute_ms = millisecondsSince(start);
+  std::printf(
+      "forest (%s): update median %.2f ms, max %.2f ms over %zu frames; %.0f TSDF blocks and "
+      "%.0f ESDF voxels changed per frame (median); recompute of the final map (%zu blocks) "
+      "%.1f ms\n",
+      label, percentile(times, 0.5), percentile(times, 1), times.size(), percentile(blocks, 0.5),
+      percentile(updated, 0.5), esdf.numBlocks(), recompute_ms);
+  EXPECT_TRUE(sameEsdf(esdf, expected, 1e-5));
+}
+
+TEST(EsdfIntegrator, FrameTimesWithExactMeasurements) {
+  flyThroughForest(0, "exact");
+}
+TEST(EsdfIntegrator, FrameTimesWithNoisyMeasurements) {
+  flyThroughForest(0.05, "noisy");
+}
+
+}  // namespace

@@ -1,0 +1,270 @@
+// thicket-mapper's node in a memq:// composite: frames wait for their pose, mirrors follow the
+// map through deltas and snapshots, bad input is refused with a reason and never reaches the map.
+#include <cmath>
+#include <cstring>
+
+#include <gtest/gtest.h>
+
+#include <thicket/map_update_t.hpp>
+#include <thicket/module_timing_t.hpp>
+
+#include "mapper_node.h"
+#include "thicket/common/depth_image.h"
+#include "thicket/common/loop.h"
+#include "thicket/common/map_update.h"
+#include "thicket/sim/render.h"
+
+namespace thicket::mapper {
+namespace {
+
+sim::World smallForest() {
+  sim::World world;
+  world.bounds_min = Eigen::Vector3d(0, 0, 0);
+  world.bounds_max = Eigen::Vector3d(20, 12, 5);
+  world.cylinders = {{6, 5, 0.4, 4}, {8, 8, 0.3, 3}, {10, 4, 0.5, 5}, {12, 7, 0.3, 2.5}};
+  return world;
+}
+
+Pose bodyAt(double s) {
+  return Pose::fromYaw(Eigen::Vector3d(1 + s, 6, 1.5), 0.0);
+}
+
+// A depth frame seen from bodyAt(s), time-stamped utime.
+depth_image_t frameAt(const sim::DepthRenderer& renderer, double s, int64_t utime) {
+  DepthImage image;
+  image.utime = utime;
+  image.camera = renderer.camera();
+  image.camera_in_body = renderer.cameraInBody();
+  image.min_range = 0.1;
+  image.max_range = renderer.options().max_range;
+  renderer.render(bodyAt(s), image.depth);
+  return encodeDepthImage(image);
+}
+
+odometry_t poseMsg(int64_t utime, const Pose& pose) {
+  odometry_t msg{};
+  msg.utime = utime;
+  poseToArrays(pose, msg.position, msg.orientation);
+  msg.quality = odometry_t::QUALITY_GOOD;
+  return msg;
+}
+
+// Everything a planner-side observer sees: mirrors of both layers (asking for snapshots when they
+// need them) and the mapper's statuses.
+class Observer : public Node {
+ public:
+  explicit Observer(lcm::LCM& lcm) : Node("observer", lcm) {
+    subscribe<map_update_t>(
+        "MAP_TSDF", [this](const map_update_t& m, const MessageInfo&) { onUpdate(tsdf, m); }, 1000);
+    subscribe<map_update_t>(
+        "MAP_ESDF", [this](const map_update_t& m, const MessageInfo&) { onUpdate(esdf, m); }, 1000);
+    subscribe<mapper_status_t>(
+        "MAPPER_STATUS",
+        [this](const mapper_status_t& m, const MessageInfo&) { statuses.push_back(m); }, 1000);
+    subscribe<module_timing_t>(
+        "MODULE_TIMING",
+        [this](const module_timing_t& m, const MessageInfo&) { timings.push_back(m); }, 1000);
+  }
+  template <class Voxel>
+  void onUpdate(MapMirror<Voxel>& mirror, const map_update_t& msg) {
+    if (mirror.apply(msg).outcome == MapMirror<Voxel>::Outcome::kNeedSnapshot &&
+        !requested[msg.layer]) {
+      requested[msg.layer] = true;  // once; the test checks that one request heals it
+      publish("MAP_REQUEST", mirror.request(msg.utime, "observer"));
+    }
+  }
+  const mapper_status_t* last(int8_t result) const {
+    for (auto it = statuses.rbegin(); it != statuses.rend(); ++it) {
+      if (it->result == result) return &*it;
+    }
+    return nullptr;
+  }
+  MapMirror<TsdfVoxel> tsdf;
+  MapMirror<EsdfVoxel> esdf;
+  bool requested[2] = {false, false};
+  std::vector<mapper_status_t> statuses;
+  std::vector<module_timing_t> timings;
+};
+
+MapperNodeOptions nodeOptions() {
+  MapperNodeOptions options;
+  options.map_id = 42;
+  return options;
+}
+
+sim::DepthCameraOptions smallCamera() {
+  sim::DepthCameraOptions camera;
+  camera.width = 160;
+  camera.height = 120;
+  return camera;
+}
+
+TEST(MapperNode, FramesWaitForTheirPoseAndMirrorsFollowTheMap) {
+  lcm::LCM lcm("memq://");
+  Loop loop(lcm);
+  const sim::DepthRenderer renderer(smallForest(), smallCamera());
+  MapperNode mapper(lcm, nodeOptions(), 42);
+  Observer observer(lcm);
+  Node sensors("sensors", lcm);
+
+  // The frame at 1 s arrives before any pose: it waits.
+  sensors.publish("CAMERA_DEPTH", frameAt(renderer, 0, 1'000'000));
+  loop.drain();
+  ASSERT_NE(observer.last(mapper_status_t::RESULT_PENDING), nullptr);
+  EXPECT_EQ(mapper.mapper().revision(), 0);
+  // Poses at 20 Hz up to 0.95 s are not enough; the one at 1.0 s is.
+  for (int64_t t = 0; t <= 950'000; t += 50'000) {
+    sensors.publish("STATE_ESTIMATE", poseMsg(t, bodyAt(t * 1e-6)));
+  }
+  loop.drain();
+  EXPECT_EQ(mapper.mapper().revision(), 0);
+  sensors.publish("STATE_ESTIMATE", poseMsg(1'000'000, bodyAt(1.0)));
+  loop.drain();
+  EXPECT_EQ(mapper.mapper().revision(), 1);
+  ASSERT_NE(observer.last(mapper_status_t::RESULT_INTEGRATED), nullptr);
+  EXPECT_EQ(observer.last(mapper_status_t::RESULT_INTEGRATED)->utime, 1'000'000);
+
+  // More frames, each after its pose; the mirrors joined at revision 1 without a snapshot, asked
+  // for one, and follow every delta since.
+  for (int k = 2; k <= 6; ++k) {
+    const int64_t t = k * 1'000'000;
+    for (int64_t p = t - 950'000; p <= t; p += 50'000) {
+      sensors.publish("STATE_ESTIMATE", poseMsg(p, bodyAt(p * 1e-6)));
+    }
+    sensors.publish("CAMERA_DEPTH", frameAt(renderer, k, t));
+    loop.drain();
+  }
+  EXPECT_EQ(mapper.mapper().revision(), 6);
+  ASSERT_NE(observer.tsdf.layer(), nullptr);
+  ASSERT_NE(observer.esdf.layer(), nullptr);
+  EXPECT_EQ(observer.tsdf.revision(), 6);
+  EXPECT_EQ(observer.esdf.revision(), 6);
+  EXPECT_TRUE(identicalLayers(*observer.tsdf.layer(), mapper.mapper().tsdf()));
+  EXPECT_TRUE(identicalLayers(*observer.esdf.layer(), mapper.mapper().esdf()));
+  EXPECT_GT(mapper.mapper().esdf().numBlocks(), 0u);
+  ASSERT_NE(observer.last(mapper_status_t::RESULT_SNAPSHOT_SENT), nullptr);
+  ASSERT_EQ(observer.timings.size(), 6u);
+  EXPECT_EQ(observer.timings.back().stages,
+            (std::vector<std::string>{"tsdf_insert", "esdf_update"}));
+  EXPECT_EQ(observer.timings.back().sequence, 6);
+  EXPECT_EQ(mapper.badMessageCount(), 0);
+}
+
+TEST(MapperNode, BadInputIsRefusedWithAReasonAndNeverReachesTheMap) {
+  lcm::LCM lcm("memq://");
+  Loop loop(lcm);
+  const sim::DepthRenderer renderer(smallForest(), smallCamera());
+  MapperNode mapper(lcm, nodeOptions(), 42);
+  Observer observer(lcm);
+  Node sensors("sensors", lcm);
+  for (int64_t t = 0; t <= 1'000'000; t += 50'000) {
+    sensors.publish("STATE_ESTIMATE", poseMsg(t, bodyAt(t * 1e-6)));
+  }
+  sensors.publish("CAMERA_DEPTH", frameAt(renderer, 0.5, 500'000));
+  loop.drain();
+  ASSERT_EQ(mapper.mapper().revision(), 1);
+  const TsdfLayer tsdf_before = mapper.mapper().tsdf();
+
+  const auto expectRefused = [&](const std::string& what, const std::string& reason_part) {
+    loop.drain();
+    const mapper_status_t* status = observer.last(mapper_status_t::RESULT_REFUSED);
+    ASSERT_NE(status, nullptr) << what;
+    EXPECT_NE(status->reason.find(reason_part), std::string::npos)
+        << what << ": the reason was '" << status->reason << "'";
+    observer.statuses.clear();
+    EXPECT_EQ(mapper.mapper().revision(), 1) << what;
+    EXPECT_TRUE(identicalLayers(mapper.mapper().tsdf(), tsdf_before)) << what;
+  };
+
+  depth_image_t nan_depth = frameAt(renderer, 0.6, 600'000);
+  {
+    DepthImage image = *decodeDepthImage(nan_depth);
+    image.depth[100] = NAN;
+    nan_depth =
+        encodeDepthImage(image, depth_image_t::DEPTH_FLOAT32_M, depth_image_t::COMPRESSION_NONE);
+  }
+  sensors.publish("CAMERA_DEPTH", nan_depth);
+  expectRefused("NaN depth", "bad depth frame");
+
+  depth_image_t wrong_size = frameAt(renderer, 0.6, 600'000);
+  wrong_size.width = 10;
+  sensors.publish("CAMERA_DEPTH", wrong_size);
+  expectRefused("wrong size", "bad depth frame");
+
+  depth_image_t unknown_encoding = frameAt(renderer, 0.6, 600'000);
+  unknown_encoding.depth_encoding = 9;
+  sensors.publish("CAMERA_DEPTH", unknown_encoding);
+  expectRefused("unknown encoding", "encoding");
+
+  sensors.publish("CAMERA_DEPTH", frameAt(renderer, 0.4, 400'000));
+  expectRefused("time going backwards", "not after the previous frame");
+
+  odometry_t nan_pose = poseMsg(1'050'000, bodyAt(1.05));
+  nan_pose.position[1] = NAN;
+  sensors.publish("STATE_ESTIMATE", nan_pose);
+  expectRefused("NaN pose", "pose refused");
+
+  odometry_t not_unit = poseMsg(1'050'000, bodyAt(1.05));
+  not_unit.orientation[0] = 0.5;
+  sensors.publish("STATE_ESTIMATE", not_unit);
+  expectRefused("non-unit quaternion", "pose refused");
+
+  sensors.publish("STATE_ESTIMATE", poseMsg(900'000, bodyAt(0.9)));
+  expectRefused("pose time going backwards", "pose refused");
+
+  odometry_t lost = poseMsg(1'050'000, bodyAt(1.05));
+  lost.quality = odometry_t::QUALITY_LOST;
+  sensors.publish("STATE_ESTIMATE", lost);
+  expectRefused("lost estimator", "lost");
+
+  // The pose stream stops for 2 s: a frame inside the gap can never get a pose.
+  sensors.publish("STATE_ESTIMATE", poseMsg(3'000'000, bodyAt(3.0)));
+  sensors.publish("CAMERA_DEPTH", frameAt(renderer, 2.0, 2'000'000));
+  expectRefused("frame inside a pose gap", "no pose at the frame's time");
+
+  map_request_t bad_layer{};
+  bad_layer.layer = 5;
+  sensors.publish("MAP_REQUEST", bad_layer);
+  expectRefused("unknown layer", "unknown layer");
+
+  // After all that, a good frame still integrates.
+  sensors.publish("STATE_ESTIMATE", poseMsg(3'050'000, bodyAt(3.05)));
+  sensors.publish("CAMERA_DEPTH", frameAt(renderer, 3.02, 3'020'000));
+  loop.drain();
+  EXPECT_EQ(mapper.mapper().revision(), 2);
+  EXPECT_EQ(mapper.framesRefused(), 5);
+  EXPECT_EQ(mapper.mapper().framesRefused(), 2);  // the others never decoded
+}
+
+std::vector<std::vector<uint8_t>> esdfBytes() {
+  lcm::LCM lcm("memq://");
+  Loop loop(lcm);
+  const sim::DepthRenderer renderer(smallForest(), smallCamera());
+  MapperNode mapper(lcm, nodeOptions(), 42);
+  Node sensors("sensors", lcm);
+  std::vector<std::vector<uint8_t>> bytes;
+  sensors.subscribeRaw(
+      "MAP_ESDF",
+      [&](const void* data, size_t size, const MessageInfo&) {
+        bytes.emplace_back(static_cast<const uint8_t*>(data),
+                           static_cast<const uint8_t*>(data) + size);
+      },
+      1000);
+  for (int k = 0; k < 4; ++k) {
+    const int64_t t = 1'000'000 + k * 500'000;
+    sensors.publish("STATE_ESTIMATE", poseMsg(t, bodyAt(k * 0.5)));
+    sensors.publish("CAMERA_DEPTH", frameAt(renderer, k * 0.5, t));
+    loop.drain();
+  }
+  return bytes;
+}
+
+TEST(MapperNode, IdenticalInputsGiveIdenticalMapMessages) {
+  const auto a = esdfBytes();
+  const auto b = esdfBytes();
+  ASSERT_EQ(a.size(), 4u);
+  EXPECT_EQ(a, b);
+}
+
+}  // namespace
+}  // namespace thicket::mapper

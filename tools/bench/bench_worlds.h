@@ -1,0 +1,99 @@
+// The benchmark world of BENCHMARK.md, forest50 at density 0.2, and poses a vehicle could fly
+// through it: shared by the benchmarks so they measure on the same frames.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+
+#include "thicket/common/depth_image.h"
+#include "thicket/common/geometry.h"
+#include "thicket/sim/ground_truth.h"
+#include "thicket/sim/render.h"
+#include "thicket/sim/world.h"
+
+namespace thicket::bench {
+
+inline sim::World forest50(uint64_t seed) {
+  auto spec = sim::loadScenario("forest50", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
+  if (!spec) throw std::runtime_error(spec.error());
+  return *sim::generateWorld(*spec, 0.2, seed);
+}
+
+/// forest50 at density 0.2, seed 1: built once.
+inline const sim::World& forest() {
+  static const sim::World world = forest50(1);
+  return world;
+}
+
+/// `count` poses every `step` metres along the start-goal diagonal at the start's height, facing
+/// the goal, skipping those within the robot radius of a tree.
+inline std::vector<Pose> flightPoses(double step, size_t count) {
+  const sim::World& world = forest();
+  const sim::GroundTruth truth(world);
+  const Eigen::Vector3d direction = (world.goal - world.start).normalized();
+  std::vector<Pose> poses;
+  for (double s = step; poses.size() < count; s += step) {
+    const Eigen::Vector3d p = world.start + s * direction;
+    if ((p - world.start).norm() > (world.goal - world.start).norm()) {
+      throw std::runtime_error("flightPoses: the diagonal is too short for that many poses");
+    }
+    if (truth.distance(p) > world.robot_radius) {
+      poses.push_back(Pose::fromYaw(p, std::atan2(direction.y(), direction.x())));
+    }
+  }
+  return poses;
+}
+
+/// A depth frame of a flight and where its camera was.
+struct FlightFrame {
+  DepthImage image;
+  Pose world_T_body;
+  Pose world_T_camera;
+};
+
+/// The frames the default depth camera (320x240, 90°) sees every 0.5 m along the first 20 m of
+/// the diagonal: the mapping benchmark's input, the same for thicket and its peers.
+inline const std::vector<FlightFrame>& flightFrames() {
+  static const std::vector<FlightFrame> frames = [] {
+    const sim::DepthRenderer renderer(forest(), sim::DepthCameraOptions{});
+    std::vector<FlightFrame> result;
+    int64_t utime = 0;
+    for (const Pose& body : flightPoses(0.5, 40)) {
+      FlightFrame frame;
+      frame.image.utime = utime += 500'000;
+      frame.image.camera = renderer.camera();
+      frame.image.camera_in_body = renderer.cameraInBody();
+      frame.image.min_range = 0.05;
+      frame.image.max_range = renderer.options().max_range;
+      renderer.render(body, frame.image.depth);
+      frame.world_T_body = body;
+      frame.world_T_camera = body * renderer.cameraInBody();
+      result.push_back(std::move(frame));
+    }
+    return result;
+  }();
+  return frames;
+}
+
+inline double elapsedMs(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since)
+      .count();
+}
+
+/// Median and 95th percentile of per-frame times [ms] as counters, and memory [MiB] (0: the
+/// library does not say).
+inline void reportFrameTimes(benchmark::State& state, std::vector<double> ms, size_t memory_bytes) {
+  if (ms.empty()) return;
+  std::sort(ms.begin(), ms.end());
+  state.counters["median_ms"] = ms[ms.size() / 2];
+  state.counters["p95_ms"] = ms[std::min(ms.size() - 1, (ms.size() * 95) / 100)];
+  state.counters["MiB"] = static_cast<double>(memory_bytes) / (1 << 20);
+}
+
+}  // namespace thicket::bench
