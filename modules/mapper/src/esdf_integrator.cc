@@ -37,7 +37,6 @@ uint8_t sideOf(uint8_t cls) {
 // The 26 neighbour offsets, z slowest and x fastest, (0, 0, 0) left out: so the opposite of
 // direction d is 25 - d.
 struct Neighbourhood {
-  std::array<std::array<int, 3>, 26> offset{};
   std::array<int, 26> linear{};  // the offset in a block's array, for voxels off its faces
   std::array<int, 26> steps{};   // non-zero components: the edge is sqrt(steps) voxels long
 };
@@ -49,7 +48,6 @@ constexpr Neighbourhood makeNeighbourhood() {
     for (int y = -1; y <= 1; ++y) {
       for (int x = -1; x <= 1; ++x) {
         if (x == 0 && y == 0 && z == 0) continue;
-        n.offset[d] = {x, y, z};
         n.linear[d] = x + kVoxelsPerSide * y + kVoxelsPerSide * kVoxelsPerSide * z;
         n.steps[d] = (x != 0) + (y != 0) + (z != 0);
         ++d;
@@ -202,9 +200,7 @@ class MonotoneQueue {
   }
 
   void push(uint32_t key, uint32_t payload) {
-    const int b = bucket(key);
-    buckets_[b].push_back(uint64_t{key} << 32 | payload);
-    nonempty_ |= uint64_t{1} << b;
+    insert(uint64_t{key} << 32 | payload);
     ++size_;
   }
 
@@ -214,12 +210,8 @@ class MonotoneQueue {
       const int i = std::countr_zero(nonempty_ & ~uint64_t{1});
       std::vector<uint64_t>& from = buckets_[i];
       nonempty_ &= ~(uint64_t{1} << i);
-      last_ = static_cast<uint32_t>(*std::min_element(from.begin(), from.end()) >> 32);
-      for (const uint64_t e : from) {
-        const int b = bucket(static_cast<uint32_t>(e >> 32));
-        buckets_[b].push_back(e);
-        nonempty_ |= uint64_t{1} << b;
-      }
+      last_ = min_[i];
+      for (const uint64_t e : from) insert(e);
       from.clear();
     }
     const uint64_t e = buckets_[0].back();
@@ -233,8 +225,18 @@ class MonotoneQueue {
  private:
   int bucket(uint32_t key) const { return 32 - std::countl_zero(key ^ last_); }
 
+  void insert(uint64_t e) {
+    const uint32_t key = static_cast<uint32_t>(e >> 32);
+    const int b = bucket(key);
+    const uint64_t bit = uint64_t{1} << b;
+    min_[b] = (nonempty_ & bit) ? std::min(min_[b], key) : key;
+    nonempty_ |= bit;
+    buckets_[b].push_back(e);
+  }
+
   std::array<std::vector<uint64_t>, 33> buckets_;
-  uint64_t nonempty_ = 0;  // bit b: bucket b holds entries
+  std::array<uint32_t, 33> min_{};  // the smallest key in each non-empty bucket
+  uint64_t nonempty_ = 0;           // bit b: bucket b holds entries
   uint32_t last_ = 0;
   size_t size_ = 0;
 };
@@ -318,6 +320,7 @@ class EsdfIntegrator::Impl {
                              EsdfLayer& esdf) {
     checkInputs(tsdf, position, esdf);
     const std::vector<BlockIndex> before = esdf.blockIndices();
+    built_ = false;  // until the end, should anything throw
     esdf.clear();
     nodes_.clear();
     by_id_.clear();
@@ -331,7 +334,6 @@ class EsdfIntegrator::Impl {
           static_cast<float>(voxel_size_ * std::sqrt(static_cast<double>(kNeighbours.steps[d])));
     }
     position_ = position;
-    built_ = true;
     beginCall();
 
     std::vector<BlockIndex> blocks = tsdf.blockIndices();
@@ -343,6 +345,7 @@ class EsdfIntegrator::Impl {
     propagate(/*incremental=*/false);
 
     EsdfUpdateResult result = finish(esdf);
+    built_ = true;
     for (const BlockIndex& b : before) {
       if (esdf.block(b) == nullptr) result.removed_blocks.push_back(b);
     }
@@ -401,6 +404,7 @@ class EsdfIntegrator::Impl {
     if (free_ids_.empty()) {
       // Queue entries hold the id in 20 bits: a million blocks, 24 GB of integrator state.
       if (by_id_.size() >= (size_t{1} << 20)) {
+        built_ = false;  // the state is half updated: the next update() recomputes
         throw std::length_error("EsdfIntegrator: more than 2^20 ESDF blocks");
       }
       node->id = static_cast<uint32_t>(by_id_.size());
@@ -465,22 +469,19 @@ class EsdfIntegrator::Impl {
     return sum;
   }
 
-  // The class of an unobserved voxel x of a row, from the row's spans of the clear and the
-  // occupied sphere.
-  Classified unobservedClass(int x, const Span& clear, const Span& occupied) const {
+  // The class of voxel x of a row from its TSDF voxel (nullptr: none) and the row's spans of the
+  // clear and the occupied sphere.
+  Classified classify(const TsdfVoxel* t, int x, const Span& clear, const Span& occupied) const {
+    if (t != nullptr && t->weight >= min_weight_) {
+      const float d = t->distance;
+      if (std::abs(d) <= band_) return {kSurface, std::clamp(d, -max_, max_)};
+      if (d > 0) return {kFree, max_};
+      if (d < 0) return {kInside, max_};
+      // NaN: as if unobserved.
+    }
     if (clear.contains(x)) return {kFree, max_};
     if (occupied.contains(x)) return {kOccupied, 0};
     return {kUnknown, 0};
-  }
-
-  // The class of a voxel from its TSDF voxel, or `unobserved` if the TSDF has not seen it.
-  Classified classify(const TsdfVoxel& t, const Classified& unobserved) const {
-    if (!(t.weight >= min_weight_)) return unobserved;
-    const float d = t.distance;
-    if (std::abs(d) <= band_) return {kSurface, std::clamp(d, -max_, max_)};
-    if (d > 0) return {kFree, max_};
-    if (d < 0) return {kInside, max_};
-    return unobserved;  // NaN
   }
 
   // Whether voxel lin already has class c (a site: and its value). Propagated values do not count.
@@ -555,13 +556,9 @@ class EsdfIntegrator::Impl {
       for (int y = origin.y(); y < origin.y() + kVoxelsPerSide; ++y) {
         const Span clear = spanOf(to_clear, initial_, rc2_, y, z);
         const Span occupied = spanOf(to_occupied, position_, ro2_, y, z);
-        Classified unobserved[kVoxelsPerSide];
-        for (int i = 0; i < kVoxelsPerSide; ++i) {
-          unobserved[i] = unobservedClass(origin.x() + i, clear, occupied);
-        }
-        const TsdfVoxel* row = tsdf_block != nullptr ? &tsdf_block->voxels[lin] : nullptr;
-        for (int i = 0; i < kVoxelsPerSide; ++i, ++lin) {
-          const Classified c = row != nullptr ? classify(row[i], unobserved[i]) : unobserved[i];
+        for (int x = origin.x(); x < origin.x() + kVoxelsPerSide; ++x, ++lin) {
+          const Classified c = classify(tsdf_block != nullptr ? &tsdf_block->voxels[lin] : nullptr,
+                                        x, clear, occupied);
           if (!unchanged(node, lin, c)) reclassify(node, b, lin, c);
         }
       }
@@ -609,10 +606,9 @@ class EsdfIntegrator::Impl {
               for (int x = x0; x <= x1; ++x) {
                 const int i = (x >> 4) - lo.x();
                 const int lin = (x & 15) + kVoxelsPerSide * ((y & 15) + kVoxelsPerSide * (z & 15));
-                const Classified unobserved = unobservedClass(x, clear, occupied);
-                const Classified c = row_tsdf_[i] != nullptr
-                                         ? classify(row_tsdf_[i]->voxels[lin], unobserved)
-                                         : unobserved;
+                const Classified c =
+                    classify(row_tsdf_[i] != nullptr ? &row_tsdf_[i]->voxels[lin] : nullptr, x,
+                             clear, occupied);
                 if (!unchanged(row_nodes_[i], lin, c)) {
                   reclassify(row_nodes_[i], BlockIndex(lo.x() + i, by, bz), lin, c);
                 }
@@ -630,10 +626,10 @@ class EsdfIntegrator::Impl {
     queue_.push(std::bit_cast<uint32_t>(value), node->id << 12 | static_cast<uint32_t>(lin));
   }
 
-  // Offers a free or inside voxel a path of length `length` through the neighbour in direction
-  // `dir` (seen from the voxel).
-  [[gnu::always_inline]] void offer(Node* node, int lin, float length, int dir) {
-    const float candidate = std::max(0.0f, length);
+  // Offers a free or inside voxel a path of length `candidate` (not negative) through the
+  // neighbour in direction `dir` (seen from the voxel). Only sites can have negative values, so
+  // only paths from a site need clamping at 0 first.
+  [[gnu::always_inline]] void offer(Node* node, int lin, float candidate, int dir) {
     if (candidate < node->value[lin]) lower(node, lin, candidate, dir);
   }
   void lower(Node* node, int lin, float candidate, int dir) {
@@ -677,7 +673,7 @@ class EsdfIntegrator::Impl {
           if ((sideOf(cls) & r.raise) != 0 && n->parent[l] == 25 - d) {
             raiseChild(r, d, n, l, source);
           } else {
-            offer(n, l, source + edge_[d], 25 - d);
+            offer(n, l, std::max(0.0f, source + edge_[d]), 25 - d);
           }
         });
       } else {
@@ -694,14 +690,14 @@ class EsdfIntegrator::Impl {
       forEachNeighbour(s.node, s.lin, [&](int d, Node* n, int l) {
         const uint8_t cls = n->state[l] & kClassMask;
         if (cls == kFree) {
-          offer(n, l, v + edge_[d], 25 - d);
+          offer(n, l, std::max(0.0f, v + edge_[d]), 25 - d);
         } else if (cls == kInside) {
-          offer(n, l, -v + edge_[d], 25 - d);
+          offer(n, l, std::max(0.0f, -v + edge_[d]), 25 - d);
         }
       });
     }
-    // ... and by the best of the untouched neighbours of every invalidated or reclassified voxel
-    // (from scratch there are none).
+    // ... and by the best neighbour of every invalidated, re-evaluated or reclassified voxel: once
+    // the raise is done, every value is the length of a real path (from scratch, none is).
     if (incremental) {
       for (const VoxelRef& t : tentative_) {
         const uint8_t cls = t.node->state[t.lin] & kClassMask;
@@ -709,15 +705,14 @@ class EsdfIntegrator::Impl {
         int best_dir = -1;
         forEachNeighbour(t.node, t.lin, [&](int d, Node* n, int l) {
           const uint8_t other = n->state[l] & kClassMask;
-          float source;
+          float candidate;
           if (other == cls) {
-            source = n->value[l];
+            candidate = n->value[l] + edge_[d];
           } else if (isSite(other)) {
-            source = cls == kFree ? n->value[l] : -n->value[l];
+            candidate = std::max(0.0f, (cls == kFree ? n->value[l] : -n->value[l]) + edge_[d]);
           } else {
             return;
           }
-          const float candidate = std::max(0.0f, source + edge_[d]);
           if (candidate < best) {
             best = candidate;
             best_dir = d;

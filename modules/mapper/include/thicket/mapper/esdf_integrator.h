@@ -3,8 +3,9 @@
 // blocks that changed, out.
 //
 // Every voxel gets a class from its TSDF voxel and two spheres ("unknown space is occupied"):
-//   - observed (TSDF weight >= min_weight, finite distance) with |distance| <= the surface band:
-//     a fixed site carrying its TSDF distance (observed, fixed);
+//   - observed (TSDF weight >= min_weight, distance not NaN; compared as floats) with
+//     |distance| <= the surface band: a fixed site carrying its TSDF distance, capped at
+//     +-max_distance (observed, fixed);
 //   - observed beyond the band: free (distance > 0) or inside an obstacle (distance < 0), with
 //     the magnitude from propagation (observed, not fixed);
 //   - unobserved within clear_radius of the initial position: free (observed, not fixed), so that
@@ -83,8 +84,9 @@ class EsdfIntegrator {
   /// call, its blocks neither added nor removed since (a mismatch in the number of blocks throws
   /// std::logic_error). The first call, and the first after the initial position or the voxel
   /// size changed, recomputes from scratch. Throws std::logic_error before setInitialPosition(),
-  /// std::invalid_argument if the layers' voxel sizes differ or the position is not finite; the
-  /// layer is unchanged when it throws.
+  /// std::invalid_argument if the layers' voxel sizes differ or the position is not finite or
+  /// farther than 1e6 m from the origin; the layer is unchanged when it throws so. Throws
+  /// std::length_error beyond 2^20 ESDF blocks (the next call then recomputes).
   EsdfUpdateResult update(const TsdfLayer& tsdf, const std::vector<BlockIndex>& changed_tsdf_blocks,
                           const Eigen::Vector3d& current_position, EsdfLayer& esdf);
 
