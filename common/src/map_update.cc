@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <set>
 
 #include "thicket/common/compression.h"
@@ -187,8 +188,12 @@ std::vector<map_update_t> encodeMapUpdate(const Layer<Voxel>& layer, const MapRe
   return parts;
 }
 
+namespace {
+
+// decodeMapUpdate in two steps, so that the mirror can drop a delta it cannot apply before it
+// decompresses any block: the header (every field but the blocks), then the blocks.
 template <class Voxel>
-Expected<MapUpdatePart<Voxel>> decodeMapUpdate(const map_update_t& msg) {
+Expected<MapUpdatePart<Voxel>> decodeHeader(const map_update_t& msg) {
   if (msg.layer != VoxelWire<Voxel>::kLayer) {
     return unexpected("layer " + std::to_string(msg.layer) + " where " +
                       std::to_string(VoxelWire<Voxel>::kLayer) + " was expected");
@@ -219,22 +224,37 @@ Expected<MapUpdatePart<Voxel>> decodeMapUpdate(const map_update_t& msg) {
   part.voxel_size = msg.voxel_size;
   part.part_index = msg.part_index;
   part.num_parts = msg.num_parts;
-  std::set<std::array<int32_t, 3>> seen;
-  for (const map_block_t& block_msg : msg.blocks) {
-    if (!seen.insert({block_msg.index[0], block_msg.index[1], block_msg.index[2]}).second) {
-      return unexpected("a block appears twice");
-    }
-    auto block = decodeBlock<Voxel>(block_msg);
-    if (!block) return unexpected(block.error());
-    part.blocks.push_back(std::move(*block));
-  }
   for (const auto& index : msg.removed) part.removed.emplace_back(index[0], index[1], index[2]);
   return part;
 }
 
 template <class Voxel>
+std::optional<std::string> decodeBlocks(const map_update_t& msg, MapUpdatePart<Voxel>& part) {
+  std::set<std::array<int32_t, 3>> seen;
+  for (const map_block_t& block_msg : msg.blocks) {
+    if (!seen.insert({block_msg.index[0], block_msg.index[1], block_msg.index[2]}).second) {
+      return "a block appears twice";
+    }
+    auto block = decodeBlock<Voxel>(block_msg);
+    if (!block) return block.error();
+    part.blocks.push_back(std::move(*block));
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+template <class Voxel>
+Expected<MapUpdatePart<Voxel>> decodeMapUpdate(const map_update_t& msg) {
+  auto part = decodeHeader<Voxel>(msg);
+  if (!part) return part;
+  if (auto error = decodeBlocks(msg, *part)) return unexpected(*error);
+  return part;
+}
+
+template <class Voxel>
 typename MapMirror<Voxel>::Result MapMirror<Voxel>::apply(const map_update_t& msg) {
-  auto decoded = decodeMapUpdate<Voxel>(msg);
+  auto decoded = decodeHeader<Voxel>(msg);
   if (!decoded) return {Outcome::kRefused, decoded.error()};
   MapUpdatePart<Voxel>& part = *decoded;
   const MapRevision& r = part.revision;
@@ -250,6 +270,7 @@ typename MapMirror<Voxel>::Result MapMirror<Voxel>::apply(const map_update_t& ms
     }
     if (part.voxel_size != layer_->voxelSize()) return needSnapshot("the voxel size changed");
   }
+  if (auto error = decodeBlocks(msg, part)) return {Outcome::kRefused, *error};
   // A part of another revision means the one being received lost a part: drop it. A lost delta
   // shows up as a gap when the next one arrives.
   if (header_ &&

@@ -4,7 +4,6 @@
 // the 95th percentile as counters (ms), and the map's memory at the end (MiB). Targets at 0.20 m:
 // TSDF insert <= 2 ms and ESDF update <= 2 ms median (the paper: 27.0 ms and 14.5 ms).
 #include <algorithm>
-#include <chrono>
 #include <vector>
 
 #include <benchmark/benchmark.h>
@@ -28,17 +27,12 @@ mapper::TsdfIntegratorOptions tsdfOptions(int64_t method) {
 void BM_TsdfInsert(benchmark::State& state) {
   const double voxel = state.range(0) * 1e-3;
   const mapper::TsdfIntegrator integrator(tsdfOptions(state.range(1)));
-  const std::vector<FlightFrame>& frames = flightFrames();
   TsdfLayer tsdf(voxel);
-  std::vector<double> ms;
-  size_t i = 0;
-  for (auto _ : state) {
-    const FlightFrame& frame = frames[i++ % frames.size()];
-    const auto start = std::chrono::steady_clock::now();
-    benchmark::DoNotOptimize(integrator.integrate(frame.image, frame.world_T_camera, tsdf));
-    ms.push_back(elapsedMs(start));
-    state.SetIterationTime(ms.back() * 1e-3);
-  }
+  const std::vector<double> ms = flyFlight(state, [&](const FlightFrame& frame) {
+    return timeMs([&] {
+      benchmark::DoNotOptimize(integrator.integrate(frame.image, frame.world_T_camera, tsdf));
+    });
+  });
   reportFrameTimes(state, ms, tsdf.memoryBytes());
 }
 BENCHMARK(BM_TsdfInsert)
@@ -53,21 +47,16 @@ void BM_EsdfUpdate(benchmark::State& state) {
   const double voxel = state.range(0) * 1e-3;
   const mapper::TsdfIntegrator tsdf_integrator(tsdfOptions(0));
   mapper::EsdfIntegrator esdf_integrator{mapper::EsdfIntegratorOptions{}};
-  const std::vector<FlightFrame>& frames = flightFrames();
-  esdf_integrator.setInitialPosition(frames.front().world_T_body.position);
+  esdf_integrator.setInitialPosition(flightFrames().front().world_T_body.position);
   TsdfLayer tsdf(voxel);
   EsdfLayer esdf(voxel);
-  std::vector<double> ms;
-  size_t i = 0;
-  for (auto _ : state) {
-    const FlightFrame& frame = frames[i++ % frames.size()];
+  const std::vector<double> ms = flyFlight(state, [&](const FlightFrame& frame) {
     const auto changed = tsdf_integrator.integrate(frame.image, frame.world_T_camera, tsdf);
-    const auto start = std::chrono::steady_clock::now();
-    benchmark::DoNotOptimize(
-        esdf_integrator.update(tsdf, changed.changed_blocks, frame.world_T_body.position, esdf));
-    ms.push_back(elapsedMs(start));
-    state.SetIterationTime(ms.back() * 1e-3);
-  }
+    return timeMs([&] {
+      benchmark::DoNotOptimize(
+          esdf_integrator.update(tsdf, changed.changed_blocks, frame.world_T_body.position, esdf));
+    });
+  });
   reportFrameTimes(state, ms, tsdf.memoryBytes() + esdf.memoryBytes());
 }
 BENCHMARK(BM_EsdfUpdate)

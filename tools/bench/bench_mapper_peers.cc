@@ -2,7 +2,6 @@
 // as bench_mapper.cc: OctoMap's OcTree::insertPointCloud (occupancy, ray casting to every point)
 // and Open3D's ScalableTSDFVolume::Integrate (a hashed TSDF, voxel-centric). Both get the same
 // 5 m integration range and 4-voxel truncation where the notion applies, and one core.
-#include <chrono>
 #include <memory>
 #include <vector>
 
@@ -42,21 +41,13 @@ octomap::Pointcloud worldPoints(const FlightFrame& frame) {
 void BM_OctomapInsert(benchmark::State& state) {
   const double voxel = state.range(0) * 1e-3;
   octomap::OcTree tree(voxel);
-  const std::vector<FlightFrame>& frames = flightFrames();
-  std::vector<double> ms;
-  size_t i = 0;
-  for (auto _ : state) {
-    const FlightFrame& frame = frames[i++ % frames.size()];
+  const std::vector<double> ms = flyFlight(state, [&](const FlightFrame& frame) {
     const octomap::Pointcloud cloud = worldPoints(frame);
     const Eigen::Vector3d& o = frame.world_T_camera.position;
-    const auto start = std::chrono::steady_clock::now();
-    tree.insertPointCloud(cloud,
-                          octomap::point3d(static_cast<float>(o.x()), static_cast<float>(o.y()),
-                                           static_cast<float>(o.z())),
-                          kMaxRange);
-    ms.push_back(elapsedMs(start));
-    state.SetIterationTime(ms.back() * 1e-3);
-  }
+    const octomap::point3d origin(static_cast<float>(o.x()), static_cast<float>(o.y()),
+                                  static_cast<float>(o.z()));
+    return timeMs([&] { tree.insertPointCloud(cloud, origin, kMaxRange); });
+  });
   reportFrameTimes(state, ms, tree.memoryUsage());
 }
 BENCHMARK(BM_OctomapInsert)
@@ -74,14 +65,10 @@ void BM_Open3dTsdfInsert(benchmark::State& state) {
   const double voxel = state.range(0) * 1e-3;
   o3d::pipelines::integration::ScalableTSDFVolume volume(
       voxel, 4 * voxel, o3d::pipelines::integration::TSDFVolumeColorType::NoColor);
-  const std::vector<FlightFrame>& frames = flightFrames();
-  const PinholeCamera& camera = frames.front().image.camera;
+  const PinholeCamera& camera = flightFrames().front().image.camera;
   const o3d::camera::PinholeCameraIntrinsic intrinsic(camera.width, camera.height, camera.fx,
                                                       camera.fy, camera.cx, camera.cy);
-  std::vector<double> ms;
-  size_t i = 0;
-  for (auto _ : state) {
-    const FlightFrame& frame = frames[i++ % frames.size()];
+  const std::vector<double> ms = flyFlight(state, [&](const FlightFrame& frame) {
     o3d::geometry::Image depth, color;
     depth.Prepare(camera.width, camera.height, 1, 4);
     color.Prepare(camera.width, camera.height, 1, 1);
@@ -90,11 +77,8 @@ void BM_Open3dTsdfInsert(benchmark::State& state) {
         color, depth, /*depth_scale=*/1.0, /*depth_trunc=*/kMaxRange,
         /*convert_rgb_to_intensity=*/false);
     const Eigen::Matrix4d camera_T_world = frame.world_T_camera.inverse().isometry().matrix();
-    const auto start = std::chrono::steady_clock::now();
-    volume.Integrate(*rgbd, intrinsic, camera_T_world);
-    ms.push_back(elapsedMs(start));
-    state.SetIterationTime(ms.back() * 1e-3);
-  }
+    return timeMs([&] { volume.Integrate(*rgbd, intrinsic, camera_T_world); });
+  });
   // Open3D does not report its memory; its voxels are (tsdf, weight) floats in 16^3 blocks.
   reportFrameTimes(state, ms, 0);
 }

@@ -81,9 +81,27 @@ inline const std::vector<FlightFrame>& flightFrames() {
   return frames;
 }
 
-inline double elapsedMs(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since)
+/// How long fn takes [ms].
+template <class Fn>
+double timeMs(Fn&& fn) {
+  const auto start = std::chrono::steady_clock::now();
+  fn();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
+}
+
+/// One flight frame per benchmark iteration, in order: step(frame) does the frame's work and
+/// returns the part of it that counts [ms] (untimed preparation stays out). The per-frame times.
+template <class Step>
+std::vector<double> flyFlight(benchmark::State& state, Step&& step) {
+  const std::vector<FlightFrame>& frames = flightFrames();
+  std::vector<double> ms;
+  size_t i = 0;
+  for (auto _ : state) {
+    ms.push_back(step(frames[i++ % frames.size()]));
+    state.SetIterationTime(ms.back() * 1e-3);
+  }
+  return ms;
 }
 
 /// Median and 95th percentile of per-frame times [ms] as counters, and memory [MiB] (0: the

@@ -150,7 +150,7 @@ void MapperNode::publishStatus(int64_t utime, int8_t result, const std::string& 
   status.num_esdf_blocks = static_cast<int32_t>(mapper_.esdf().numBlocks());
   status.memory_bytes =
       static_cast<int64_t>(mapper_.tsdf().memoryBytes() + mapper_.esdf().memoryBytes());
-  status.frames_integrated = mapper_.framesIntegrated();
+  status.frames_integrated = mapper_.revision();
   status.frames_refused = framesRefused();
   status.frames_pending = static_cast<int32_t>(mapper_.pendingFrames());
   publish("MAPPER_STATUS", status);
@@ -161,9 +161,9 @@ std::string MapperNode::summary() const {
   std::snprintf(line, sizeof(line),
                 "%lld frames integrated, %lld refused; tsdf_insert median %.2f ms, esdf_update "
                 "median %.2f ms; %zu TSDF and %zu ESDF blocks",
-                static_cast<long long>(mapper_.framesIntegrated()),
-                static_cast<long long>(framesRefused()), median(tsdf_ms_), median(esdf_ms_),
-                mapper_.tsdf().numBlocks(), mapper_.esdf().numBlocks());
+                static_cast<long long>(mapper_.revision()), static_cast<long long>(framesRefused()),
+                median(tsdf_ms_), median(esdf_ms_), mapper_.tsdf().numBlocks(),
+                mapper_.esdf().numBlocks());
   return line;
 }
 

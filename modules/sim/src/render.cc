@@ -652,12 +652,11 @@ void RayCaster::View::castFan(const Eigen::Vector2d& azimuth,
   }
   const double ax = azimuth.x();
   const double ay = azimuth.y();
-  const auto inFan = [ax, ay](const Eigen::Vector3d& d, double xy) {
-    return std::abs(d.x() * ay - d.y() * ax) <= 1e-9 * xy && d.x() * ax + d.y() * ay > 0;
-  };
+  // In squares, to spare a square root per ray: the xy part is within 1e-9 rad of the azimuth.
   for (const Eigen::Vector3d& d : unit_dirs) {
-    const double xy = std::sqrt(d.x() * d.x() + d.y() * d.y());
-    if (xy > 1e-9 && !inFan(d, xy)) {
+    const double xy_sq = d.x() * d.x() + d.y() * d.y();
+    const double cross = d.x() * ay - d.y() * ax;
+    if (xy_sq > 1e-18 && !(cross * cross <= 1e-18 * xy_sq && d.x() * ax + d.y() * ay > 0)) {
       throw std::invalid_argument("RayCaster::View::castFan: a ray is not in the fan");
     }
   }

@@ -99,14 +99,18 @@ sim::DepthCameraOptions smallCamera() {
   return camera;
 }
 
-TEST(MapperNode, FramesWaitForTheirPoseAndMirrorsFollowTheMap) {
-  lcm::LCM lcm("memq://");
-  Loop loop(lcm);
-  const sim::DepthRenderer renderer(smallForest(), smallCamera());
-  MapperNode mapper(lcm, nodeOptions(), 42);
-  Observer observer(lcm);
-  Node sensors("sensors", lcm);
+// The mapper with a sensor rig and an observer on one memq:// LCM.
+class MapperNodeTest : public ::testing::Test {
+ protected:
+  lcm::LCM lcm{"memq://"};
+  Loop loop{lcm};
+  const sim::DepthRenderer renderer{smallForest(), smallCamera()};
+  MapperNode mapper{lcm, nodeOptions(), 42};
+  Observer observer{lcm};
+  Node sensors{"sensors", lcm};
+};
 
+TEST_F(MapperNodeTest, FramesWaitForTheirPoseAndMirrorsFollowTheMap) {
   // The frame at 1 s arrives before any pose: it waits.
   sensors.publish("CAMERA_DEPTH", frameAt(renderer, 0, 1'000'000));
   loop.drain();
@@ -150,13 +154,7 @@ TEST(MapperNode, FramesWaitForTheirPoseAndMirrorsFollowTheMap) {
   EXPECT_EQ(mapper.badMessageCount(), 0);
 }
 
-TEST(MapperNode, BadInputIsRefusedWithAReasonAndNeverReachesTheMap) {
-  lcm::LCM lcm("memq://");
-  Loop loop(lcm);
-  const sim::DepthRenderer renderer(smallForest(), smallCamera());
-  MapperNode mapper(lcm, nodeOptions(), 42);
-  Observer observer(lcm);
-  Node sensors("sensors", lcm);
+TEST_F(MapperNodeTest, BadInputIsRefusedWithAReasonAndNeverReachesTheMap) {
   for (int64_t t = 0; t <= 1'000'000; t += 50'000) {
     sensors.publish("STATE_ESTIMATE", poseMsg(t, bodyAt(t * 1e-6)));
   }
@@ -236,6 +234,7 @@ TEST(MapperNode, BadInputIsRefusedWithAReasonAndNeverReachesTheMap) {
   EXPECT_EQ(mapper.mapper().framesRefused(), 2);  // the others never decoded
 }
 
+// The MAP_ESDF messages of a short flight.
 std::vector<std::vector<uint8_t>> esdfBytes() {
   lcm::LCM lcm("memq://");
   Loop loop(lcm);

@@ -91,7 +91,8 @@ class MapMirror {
   };
 
   /// Applies one message. Parts of a revision are held until all have arrived, then applied
-  /// together; a delta applies only on top of the revision before it, from the same map.
+  /// together; a delta applies only on top of the revision before it, from the same map, and
+  /// one that cannot is dropped on its header alone, before any block is decompressed.
   Result apply(const map_update_t& msg);
 
   /// The mirrored layer, or nullptr before the first full snapshot.

@@ -78,12 +78,11 @@ class Mapper {
   const TsdfLayer& tsdf() const { return tsdf_; }
   const EsdfLayer& esdf() const { return esdf_; }
   const MapperOptions& options() const { return options_; }
-  /// The current revision: the number of integrated frames.
+  /// The current revision: the number of frames integrated.
   int64_t revision() const { return revision_; }
   /// Time of the newest integrated frame [µs], 0 before any.
   int64_t utime() const { return utime_; }
   size_t pendingFrames() const { return pending_.size(); }
-  int64_t framesIntegrated() const { return revision_; }
   int64_t framesRefused() const { return frames_refused_; }
 
  private:
