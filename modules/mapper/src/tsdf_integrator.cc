@@ -85,35 +85,63 @@ void validate(const DepthImage& image, const Pose& world_T_camera) {
   }
 }
 
-// Every pixel's measurement; along_ray converts depths to ranges along the pixel's ray. Throws on
-// negative or non-finite depths, before anything is integrated.
-std::vector<PixelMeasurement> measurePixels(const DepthImage& image,
-                                            const TsdfIntegratorOptions& options, bool along_ray) {
+// Throws on a negative or non-finite depth, before anything is integrated: one branch-free pass
+// over the image, then a search for the first bad pixel only if there is one.
+void checkDepths(const DepthImage& image) {
+  bool bad = false;
+  for (const float d : image.depth) bad |= !(d >= 0 && d <= std::numeric_limits<float>::max());
+  if (!bad) return;
+  const int width = image.camera.width;
+  for (size_t i = 0; i < image.depth.size(); ++i) {
+    const float depth = image.depth[i];
+    if (!(std::isfinite(depth) && depth >= 0)) {
+      throw std::invalid_argument("TsdfIntegrator: pixel (" + std::to_string(i % width) + ", " +
+                                  std::to_string(i / width) + ") has depth " +
+                                  std::to_string(depth));
+    }
+  }
+}
+
+// What a pixel of (checked) depth says; scale converts its depth to the method's distance (the
+// ray caster's range along the pixel's ray; 1 for the optical z).
+inline PixelMeasurement measurePixel(double depth, double scale, const DepthImage& image,
+                                     double range) {
+  if (depth > 0 && depth < image.min_range) return {};
+  const bool returned = depth > 0 && depth <= image.max_range;
+  const double distance = returned ? depth * scale : kInf;
+  if (distance <= range) return {distance, kInf, measurementWeight(depth)};
+  return {distance, range, measurementWeight(range)};
+}
+
+// Every pixel's measurement along its ray, for the ray caster.
+std::vector<PixelMeasurement> measurePixelsAlongRays(const DepthImage& image,
+                                                     const TsdfIntegratorOptions& options) {
   const PinholeCamera& camera = image.camera;
-  const double range = options.max_integration_range;
-  const double clearing_weight = measurementWeight(range);
   std::vector<PixelMeasurement> pixels(image.depth.size());
   for (int v = 0; v < camera.height; ++v) {
     for (int u = 0; u < camera.width; ++u) {
       const size_t i = static_cast<size_t>(v) * camera.width + u;
-      const double depth = image.depth[i];
-      if (!(std::isfinite(depth) && depth >= 0)) {
-        throw std::invalid_argument("TsdfIntegrator: pixel (" + std::to_string(u) + ", " +
-                                    std::to_string(v) + ") has depth " + std::to_string(depth));
-      }
-      PixelMeasurement& m = pixels[i];
-      if (depth > 0 && depth < image.min_range) continue;
-      const bool returned = depth > 0 && depth <= image.max_range;
-      const double scale = along_ray ? camera.backProject(u, v, 1.0).norm() : 1.0;
-      const double distance = returned ? depth * scale : kInf;
-      if (distance <= range) {
-        m = {distance, kInf, measurementWeight(depth)};
-      } else {
-        m = {distance, range, clearing_weight};
-      }
+      pixels[i] = measurePixel(image.depth[i], camera.backProject(u, v, 1.0).norm(), image,
+                               options.max_integration_range);
     }
   }
   return pixels;
+}
+
+// The indices i in [0, 16) with a + b i >= 0 (strict: > 0), as [lo, hi]; one index of slack on
+// each side against rounding, the exact test being made per voxel anyway.
+inline void clipRow(double a, double b, bool strict, int& lo, int& hi) {
+  if (b == 0) {
+    if (strict ? !(a > 0) : !(a >= 0)) hi = -1;  // NaN excludes the row too
+    return;
+  }
+  const double root = -a / b;  // a + b i = 0
+  if (!std::isfinite(root)) return;
+  if (b > 0) {
+    lo = std::max(lo, static_cast<int>(std::clamp(std::floor(root), -1.0, 16.0)) - 1);
+  } else {
+    hi = std::min(hi, static_cast<int>(std::clamp(std::ceil(root), -1.0, 16.0)) + 1);
+  }
 }
 
 // Blocks whose voxel centres may lie in the frustum up to max_depth, in indexLess order.
@@ -154,7 +182,6 @@ std::vector<BlockIndex> frustumBlocks(const PinholeCamera& camera, const Pose& w
 TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& world_T_camera,
                                           const TsdfIntegratorOptions& options,
                                           const VoxelUpdater& updater, TsdfLayer& layer) {
-  const std::vector<PixelMeasurement> pixels = measurePixels(image, options, false);
   const PinholeCamera& camera = image.camera;
   const Pose camera_T_world = world_T_camera.inverse();
   // No voxel beyond this is updated: surfaces end at the integration range, plus the truncation
@@ -162,6 +189,13 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
   const double max_depth = options.max_integration_range + updater.truncation();
   const Eigen::Matrix3d camera_R_world = camera_T_world.orientation.toRotationMatrix();
   const Eigen::Matrix3d steps = camera_R_world * layer.voxelSize();  // column a: one voxel along a
+  const Eigen::Vector3d step = steps.col(0);
+  // Pixel centres sit at integer coordinates, so the nearest pixel of a projection is its
+  // integer part plus one half: column = fx x / z + cx + 0.5 is in [0, width) iff, for z > 0,
+  // fx x + (cx + 0.5) z >= 0 and fx x + (cx + 0.5 - width) z < 0; rows likewise. All four, and
+  // 0 < z <= max_depth, are linear in a row's voxel index i.
+  const double column_offset = camera.cx + 0.5;
+  const double row_offset = camera.cy + 0.5;
 
   TsdfIntegrationResult result;
   // New blocks are filled here first and allocated only if some voxel was updated.
@@ -173,24 +207,38 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
     const Eigen::Vector3d first = camera_T_world.transform(layer.voxelCenter(voxelOfBlock(b, 0)));
     int64_t updated = 0;
     bool changed = false;
-    int linear = 0;
     for (int k = 0; k < kVoxelsPerSide; ++k) {
       const Eigen::Vector3d slice = first + k * steps.col(2);
       for (int j = 0; j < kVoxelsPerSide; ++j) {
         const Eigen::Vector3d line = slice + j * steps.col(1);
-        for (int i = 0; i < kVoxelsPerSide; ++i, ++linear) {
-          const Eigen::Vector3d p = line + i * steps.col(0);
+        int lo = 0;
+        int hi = kVoxelsPerSide - 1;
+        clipRow(line.z(), step.z(), true, lo, hi);
+        clipRow(max_depth - line.z(), -step.z(), false, lo, hi);
+        clipRow(camera.fx * line.x() + column_offset * line.z(),
+                camera.fx * step.x() + column_offset * step.z(), false, lo, hi);
+        clipRow(-(camera.fx * line.x() + (column_offset - camera.width) * line.z()),
+                -(camera.fx * step.x() + (column_offset - camera.width) * step.z()), true, lo, hi);
+        clipRow(camera.fy * line.y() + row_offset * line.z(),
+                camera.fy * step.y() + row_offset * step.z(), false, lo, hi);
+        clipRow(-(camera.fy * line.y() + (row_offset - camera.height) * line.z()),
+                -(camera.fy * step.y() + (row_offset - camera.height) * step.z()), true, lo, hi);
+        lo = std::max(lo, 0);
+        hi = std::min(hi, kVoxelsPerSide - 1);
+        TsdfVoxel* row_voxels = voxels + kVoxelsPerSide * (j + kVoxelsPerSide * k);
+        for (int i = lo; i <= hi; ++i) {
+          const Eigen::Vector3d p = line + i * step;
           const double z = p.z();
           if (!(z > 0 && z <= max_depth)) continue;
-          // Pixel centres sit at integer coordinates, so the nearest pixel is the integer part
-          // of the projection plus one half.
-          const double column = camera.fx * p.x() / z + camera.cx + 0.5;
-          const double row = camera.fy * p.y() / z + camera.cy + 0.5;
+          const double inverse_z = 1.0 / z;
+          const double column = camera.fx * p.x() * inverse_z + column_offset;
+          const double row = camera.fy * p.y() * inverse_z + row_offset;
           if (!(column >= 0 && column < camera.width && row >= 0 && row < camera.height)) continue;
-          const PixelMeasurement& m =
-              pixels[static_cast<size_t>(row) * camera.width + static_cast<size_t>(column)];
+          const double depth =
+              image.depth[static_cast<size_t>(row) * camera.width + static_cast<size_t>(column)];
+          const PixelMeasurement m = measurePixel(depth, 1.0, image, options.max_integration_range);
           if (m.weight == 0 || z > m.max_voxel) continue;
-          if (updater.update(voxels[linear], m.distance - z, m.weight, changed)) ++updated;
+          if (updater.update(row_voxels[i], m.distance - z, m.weight, changed)) ++updated;
         }
       }
     }
@@ -230,7 +278,7 @@ struct AxisWalk {
 TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& world_T_camera,
                                        const TsdfIntegratorOptions& options,
                                        const VoxelUpdater& updater, TsdfLayer& layer) {
-  const std::vector<PixelMeasurement> pixels = measurePixels(image, options, true);
+  const std::vector<PixelMeasurement> pixels = measurePixelsAlongRays(image, options);
   const PinholeCamera& camera = image.camera;
   const double voxel_size = layer.voxelSize();
   const Eigen::Vector3d& origin = world_T_camera.position;
@@ -323,6 +371,7 @@ TsdfIntegrator::TsdfIntegrator(TsdfIntegratorOptions options) : options_(options
 TsdfIntegrationResult TsdfIntegrator::integrate(const DepthImage& image, const Pose& world_T_camera,
                                                 TsdfLayer& layer) const {
   validate(image, world_T_camera);
+  checkDepths(image);
   const Pose pose{world_T_camera.position, world_T_camera.orientation.normalized()};
   const VoxelUpdater updater(layer.voxelSize(), options_.truncation_voxels * layer.voxelSize(),
                              options_.max_weight);

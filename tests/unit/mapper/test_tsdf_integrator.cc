@@ -7,6 +7,7 @@
 #include <limits>
 #include <map>
 #include <numbers>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -344,6 +345,46 @@ TEST_P(TsdfIntegratorTest, NoReturnClearsUpToIntegrationRange) {
         EXPECT_EQ(voxel->distance, static_cast<float>(truncation()));
       }
     }
+  }
+}
+
+// The projective integrator skips each voxel row's stretch outside the image analytically; in
+// empty space it must still update exactly the voxels whose centres project into the image at
+// optical z in (0, range], found here by brute force, from cameras at random poses.
+TEST(TsdfIntegrator, ProjectiveUpdatesEveryVoxelInTheFrustum) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<> unit(-1, 1);
+  const double vs = 0.2;
+  const TsdfIntegrator integrator = makeIntegrator(Method::kProjective);
+  const double range = integrator.options().max_integration_range;
+  for (int trial = 0; trial < 6; ++trial) {
+    const Eigen::Quaterniond q =
+        Eigen::Quaterniond(unit(rng), unit(rng), unit(rng), unit(rng)).normalized();
+    const Pose world_T_camera{Eigen::Vector3d(unit(rng), unit(rng), unit(rng)) * 3, q};
+    const Frame frame = emptyFrame(world_T_camera);
+    const PinholeCamera& camera = frame.image.camera;
+    TsdfLayer layer(vs);
+    const TsdfIntegrationResult result = integrator.integrate(frame.image, world_T_camera, layer);
+
+    const Pose camera_T_world = world_T_camera.inverse();
+    // The frustum's far corners are sqrt(1 + 1 + 0.75^2) ranges away.
+    const VoxelIndex lo = layer.voxelIndex(world_T_camera.position.array() - 1.6 * range);
+    const VoxelIndex hi = layer.voxelIndex(world_T_camera.position.array() + 1.6 * range);
+    int64_t inside = 0;
+    for (int z = lo.z(); z <= hi.z(); ++z) {
+      for (int y = lo.y(); y <= hi.y(); ++y) {
+        for (int x = lo.x(); x <= hi.x(); ++x) {
+          const Eigen::Vector3d p =
+              camera_T_world.transform(layer.voxelCenter(VoxelIndex(x, y, z)));
+          if (!(p.z() > 0 && p.z() <= range)) continue;
+          const double column = camera.fx * p.x() / p.z() + camera.cx + 0.5;
+          const double row = camera.fy * p.y() / p.z() + camera.cy + 0.5;
+          if (column >= 0 && column < camera.width && row >= 0 && row < camera.height) ++inside;
+        }
+      }
+    }
+    EXPECT_GT(inside, 10000) << "trial " << trial;
+    EXPECT_EQ(result.voxels_updated, inside) << "trial " << trial;
   }
 }
 
