@@ -54,7 +54,7 @@ BENCHMARK(BM_OctomapInsert)
     ->Arg(200)
     ->Arg(100)
     ->Arg(50)
-    ->Iterations(40)
+    ->Iterations(kFlightFrames)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);
 
@@ -86,7 +86,7 @@ BENCHMARK(BM_Open3dTsdfInsert)
     ->Arg(200)
     ->Arg(100)
     ->Arg(50)
-    ->Iterations(40)
+    ->Iterations(kFlightFrames)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);
 

@@ -57,21 +57,21 @@ struct FlightFrame {
   Pose world_T_camera;
 };
 
-/// The frames the default depth camera (320x240, 90°) sees every 0.5 m along the first 20 m of
-/// the diagonal: the mapping benchmark's input, the same for thicket and its peers.
+/// Frames in a flight, and the distance between two: one mapping cycle of DESIGN §1 (4 Hz) at
+/// v_max (1 m/s).
+constexpr int kFlightFrames = 80;
+constexpr double kFlightStep = 0.25;  // [m]
+
+/// The frames the default depth camera (320x240, 90°) sees every kFlightStep along the first 20 m
+/// of the diagonal: the mapping benchmark's input, the same for thicket and its peers.
 inline const std::vector<FlightFrame>& flightFrames() {
   static const std::vector<FlightFrame> frames = [] {
     const sim::DepthRenderer renderer(forest(), sim::DepthCameraOptions{});
     std::vector<FlightFrame> result;
     int64_t utime = 0;
-    for (const Pose& body : flightPoses(0.5, 40)) {
+    for (const Pose& body : flightPoses(kFlightStep, kFlightFrames)) {
       FlightFrame frame;
-      frame.image.utime = utime += 500'000;
-      frame.image.camera = renderer.camera();
-      frame.image.camera_in_body = renderer.cameraInBody();
-      frame.image.min_range = 0.05;
-      frame.image.max_range = renderer.options().max_range;
-      renderer.render(body, frame.image.depth);
+      frame.image = renderer.renderImage(body, utime += 250'000);
       frame.world_T_body = body;
       frame.world_T_camera = body * renderer.cameraInBody();
       result.push_back(std::move(frame));
@@ -90,15 +90,16 @@ double timeMs(Fn&& fn) {
       .count();
 }
 
-/// One flight frame per benchmark iteration, in order: step(frame) does the frame's work and
-/// returns the part of it that counts [ms] (untimed preparation stays out). The per-frame times.
+/// One flight frame per benchmark iteration, in order, every `stride`-th (a flight `stride` times
+/// as fast): step(frame) does the frame's work and returns the part of it that counts [ms]
+/// (untimed preparation stays out). The per-frame times. Run kFlightFrames / stride iterations.
 template <class Step>
-std::vector<double> flyFlight(benchmark::State& state, Step&& step) {
+std::vector<double> flyFlight(benchmark::State& state, Step&& step, size_t stride = 1) {
   const std::vector<FlightFrame>& frames = flightFrames();
   std::vector<double> ms;
   size_t i = 0;
   for (auto _ : state) {
-    ms.push_back(step(frames[i++ % frames.size()]));
+    ms.push_back(step(frames[(i++ * stride) % frames.size()]));
     state.SetIterationTime(ms.back() * 1e-3);
   }
   return ms;

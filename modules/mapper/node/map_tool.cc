@@ -107,15 +107,8 @@ int build(const std::vector<std::string>& args) {
       }
       const int64_t utime = (k + 1) * 1'000'000;
       const thicket::Pose body = thicket::Pose::fromYaw(position, yaw);
-      thicket::DepthImage frame;
-      frame.utime = utime;
-      frame.camera = renderer.camera();
-      frame.camera_in_body = renderer.cameraInBody();
-      frame.min_range = 0.05;
-      frame.max_range = renderer.options().max_range;
-      renderer.render(body, frame.depth);
       if (auto refused = mapper.addPose(utime, body)) return fail("pose refused: " + *refused);
-      mapper.addFrame(std::move(frame));
+      mapper.addFrame(renderer.renderImage(body, utime));
       std::vector<thicket::mapper::MapRevisionUpdate> updates;
       for (const auto& outcome : mapper.integrateReady(updates)) {
         if (outcome.status != thicket::mapper::FrameOutcome::Status::kIntegrated) {

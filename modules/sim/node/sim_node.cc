@@ -111,14 +111,8 @@ void SimNode::publishFrame() {
   const PathSample& state = vehicle_.state();
   const Pose body = Pose::fromYaw(state.position, state.yaw);
   if (depth_) {
-    DepthImage image;
-    image.utime = state.utime;
-    image.camera = depth_->camera();
-    image.camera_in_body = depth_->cameraInBody();
-    image.min_range = 0.05;
-    image.max_range = options_.depth_camera.max_range;
-    depth_->render(body, image.depth, static_cast<uint64_t>(frame_));
-    depth_image_t msg = encodeDepthImage(image);
+    depth_image_t msg =
+        encodeDepthImage(depth_->renderImage(body, state.utime, static_cast<uint64_t>(frame_)));
     msg.camera_id = "sim_depth";
     publish("CAMERA_DEPTH", msg);
   } else {

@@ -778,6 +778,18 @@ DepthRenderer::DepthRenderer(const World& world, DepthCameraOptions options)
   }
 }
 
+DepthImage DepthRenderer::renderImage(const Pose& world_T_body, int64_t utime,
+                                      uint64_t noise_seed) const {
+  DepthImage image;
+  image.utime = utime;
+  image.camera = camera_;
+  image.camera_in_body = camera_in_body_;
+  image.min_range = kMinRange;
+  image.max_range = options_.max_range;
+  render(world_T_body, image.depth, noise_seed);
+  return image;
+}
+
 void DepthRenderer::render(const Pose& world_T_body, std::vector<float>& depth_m,
                            uint64_t noise_seed) const {
   const Pose world_T_camera = world_T_body * camera_in_body_;

@@ -31,14 +31,7 @@ Pose bodyAt(double s) {
 
 // A depth frame seen from bodyAt(s), time-stamped utime.
 depth_image_t frameAt(const sim::DepthRenderer& renderer, double s, int64_t utime) {
-  DepthImage image;
-  image.utime = utime;
-  image.camera = renderer.camera();
-  image.camera_in_body = renderer.cameraInBody();
-  image.min_range = 0.1;
-  image.max_range = renderer.options().max_range;
-  renderer.render(bodyAt(s), image.depth);
-  return encodeDepthImage(image);
+  return encodeDepthImage(renderer.renderImage(bodyAt(s), utime));
 }
 
 odometry_t poseMsg(int64_t utime, const Pose& pose) {

@@ -15,31 +15,14 @@
 
 #include <gtest/gtest.h>
 
+#include "forest_views.h"
 #include "thicket/sim/ground_truth.h"
-#include "thicket/sim/render.h"
-#include "thicket/sim/world.h"
 
 namespace thicket::mapper {
 namespace {
 
 using Method = TsdfIntegratorOptions::Method;
 using std::numbers::pi;
-
-struct Frame {
-  DepthImage image;
-  Pose world_T_camera;
-};
-
-Frame renderFrame(const sim::DepthRenderer& renderer, const Pose& world_T_body) {
-  Frame frame;
-  frame.image.camera = renderer.camera();
-  frame.image.camera_in_body = renderer.cameraInBody();
-  frame.image.min_range = 0.05;
-  frame.image.max_range = renderer.options().max_range;
-  renderer.render(world_T_body, frame.image.depth);
-  frame.world_T_camera = world_T_body * renderer.cameraInBody();
-  return frame;
-}
 
 // An image of the default camera that sees nothing.
 Frame emptyFrame(const Pose& world_T_camera) {
@@ -56,34 +39,6 @@ TsdfIntegrator makeIntegrator(Method method) {
   TsdfIntegratorOptions options;
   options.method = method;
   return TsdfIntegrator(options);
-}
-
-const sim::World& forest() {
-  static const sim::World world = [] {
-    const auto spec =
-        sim::loadScenario("forest50", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
-    if (!spec) throw std::runtime_error(spec.error());
-    return *sim::generateWorld(*spec, 0.2, 1);
-  }();
-  return world;
-}
-
-// Views along the forest's start-goal diagonal at 1.5 m, every metre, facing the goal, clear of
-// the trees.
-std::vector<Frame> forestFrames(int count) {
-  const sim::World& world = forest();
-  const sim::GroundTruth truth(world);
-  const sim::DepthRenderer renderer(world, sim::DepthCameraOptions{});
-  const Eigen::Vector3d direction = (world.goal - world.start).normalized();
-  std::vector<Frame> frames;
-  for (double s = 2.0; static_cast<int>(frames.size()) < count; s += 1.0) {
-    const Eigen::Vector3d p = world.start + s * direction;
-    if (truth.distance(p) > world.robot_radius) {
-      frames.push_back(
-          renderFrame(renderer, Pose::fromYaw(p, std::atan2(direction.y(), direction.x()))));
-    }
-  }
-  return frames;
 }
 
 // Calls f(centre, voxel) for every observed voxel (weight > 0).

@@ -45,8 +45,10 @@ struct EsdfIntegratorOptions {
   /// than clear_radius is allowed (then only the clear sphere's outside is occupied near the
   /// start).
   double occupied_radius = 5.0;
-  /// Observed voxels with |TSDF distance| <= this * voxel size are fixed sites.
-  double surface_band_voxels = 1.0;
+  /// Observed voxels with |TSDF distance| <= this * voxel size are fixed sites. Wider than one
+  /// voxel, so that surfaces seen at grazing angles (the ground), whose projective distances
+  /// stretch by 1 / cos(incidence), still have a site in every voxel column through them.
+  double surface_band_voxels = 1.5;
   /// TSDF voxels with less weight than this are unobserved.
   double min_weight = 1e-6;
 

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 
 #include "thicket/common/camera.h"
+#include "thicket/common/depth_image.h"
 #include "thicket/common/geometry.h"
 #include "thicket/common/params.h"
 #include "thicket/sim/world.h"
@@ -165,6 +166,11 @@ class DepthRenderer {
   /// a generator keyed by (noise_seed, i), so it does not depend on the order pixels are
   /// rendered in; a return that noise would push to or below zero becomes 0.
   void render(const Pose& world_T_body, std::vector<float>& depth_m, uint64_t noise_seed = 0) const;
+
+  /// The same as a DepthImage stamped utime: the camera, its mount, and the range limits (returns
+  /// closer than kMinRange are not trusted, as on a real depth camera).
+  DepthImage renderImage(const Pose& world_T_body, int64_t utime, uint64_t noise_seed = 0) const;
+  static constexpr double kMinRange = 0.05;  ///< [m]
 
  private:
   RayCaster caster_;
