@@ -61,6 +61,9 @@ int main(int argc, char** argv) {
     thicket::mapper::MapperNode node(lcm, options, map_id, now_ms);
     loop.run();
     std::printf("thicket-mapper: %s\n", node.summary().c_str());
+    if (const std::string saved = node.saveIfConfigured(); !saved.empty()) {
+      std::printf("thicket-mapper: map saved to %s\n", saved.c_str());
+    }
   } catch (const std::exception& e) {
     return fail(e.what());
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <stdexcept>
 
 #include <thicket/map_update_t.hpp>
 #include <thicket/module_timing_t.hpp>
@@ -18,6 +19,8 @@ void MapperNodeOptions::declare(Params& p) {
   p("state_channel", state_channel, "body poses in (odometry_t)");
   p("max_message_kib", max_message_kib, "compressed block bytes per map message [KiB]",
     Range::between(16, 900));
+  p("load_map", load_map, "a saved map to continue from; empty: start with an empty map");
+  p("save_map", save_map, "where to save the map when the node stops; empty: not saved");
 }
 
 namespace {
@@ -34,6 +37,11 @@ double median(std::vector<double> values) {
 MapperNode::MapperNode(lcm::LCM& lcm, const MapperNodeOptions& options, int64_t map_id,
                        std::function<double()> now_ms)
     : Node("mapper", lcm), options_(options), map_id_(map_id), mapper_(options.mapper, now_ms) {
+  if (!options_.load_map.empty()) {
+    auto saved = loadMap(options_.load_map);
+    if (!saved) throw std::runtime_error(saved.error());
+    mapper_.restore(*saved);
+  }
   // Depth frames come in bursts when a log replays; poses at 20-200 Hz.
   subscribe<depth_image_t>(
       options_.depth_channel,
@@ -154,6 +162,13 @@ void MapperNode::publishStatus(int64_t utime, int8_t result, const std::string& 
   status.frames_refused = framesRefused();
   status.frames_pending = static_cast<int32_t>(mapper_.pendingFrames());
   publish("MAPPER_STATUS", status);
+}
+
+std::string MapperNode::saveIfConfigured() const {
+  if (options_.save_map.empty()) return "";
+  saveMap(options_.save_map,
+          SavedMap{mapper_.tsdf(), mapper_.esdf(), map_id_, mapper_.revision(), mapper_.utime()});
+  return options_.save_map;
 }
 
 std::string MapperNode::summary() const {

@@ -26,6 +26,10 @@ struct MapperNodeOptions {
   std::string state_channel = "STATE_ESTIMATE";
   /// Compressed block bytes per map message; a revision is split into parts above this [KiB].
   int max_message_kib = 256;
+  /// A map saved by thicket-map or a previous run to continue from ("": start empty).
+  std::string load_map;
+  /// Where the map is saved when the node stops ("": not saved).
+  std::string save_map;
 
   void declare(Params& p);
 };
@@ -42,6 +46,9 @@ class MapperNode : public Node {
   int64_t framesRefused() const { return mapper_.framesRefused() + undecodable_frames_; }
   /// "N frames integrated, M refused; tsdf_insert median X ms, esdf_update median Y ms".
   std::string summary() const;
+  /// Writes the map to options' save_map, if set; returns the path written or "". Throws
+  /// std::runtime_error when the file cannot be written.
+  std::string saveIfConfigured() const;
 
  private:
   void onDepth(const depth_image_t& msg);

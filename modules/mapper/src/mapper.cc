@@ -69,6 +69,21 @@ FrameOutcome Mapper::addFrame(DepthImage frame) {
   return {FrameOutcome::Status::kPending, utime, "waiting for the pose at its time"};
 }
 
+void Mapper::restore(const SavedMap& map) {
+  if (last_frame_utime_ >= 0 || revision_ > 0) {
+    throw std::logic_error("Mapper::restore: frames were already taken");
+  }
+  if (map.tsdf.voxelSize() != options_.voxel_size || map.esdf.voxelSize() != options_.voxel_size) {
+    throw std::invalid_argument(
+        "Mapper::restore: the map has " + std::to_string(map.tsdf.voxelSize()) +
+        " m voxels, the mapper is configured for " + std::to_string(options_.voxel_size) + " m");
+  }
+  tsdf_ = map.tsdf;
+  esdf_ = map.esdf;  // served until the first frame; its update recomputes from the TSDF
+  revision_ = map.revision;
+  utime_ = map.utime;
+}
+
 std::vector<FrameOutcome> Mapper::integrateReady(std::vector<MapRevisionUpdate>& updates) {
   std::vector<FrameOutcome> outcomes = std::move(dropped_);
   dropped_.clear();

@@ -105,5 +105,16 @@ TEST(MapperCli, TheShippedParameterFileIsCurrent) {
   EXPECT_EQ(bad.status, 2);
 }
 
+// A map to continue from that cannot be read stops the mapper at start, saying why.
+TEST(MapperCli, RefusesAMapItCannotLoad) {
+  const std::string config = temp("load.yaml");
+  std::ofstream(config) << "load_map: " << temp("missing.map") << "\n";
+  const CliResult result = thicket::testing::runCommand(std::string(THICKET_MAPPER) +
+                                                        " --lcm-url memq:// --config " + config);
+  EXPECT_EQ(result.status, 2);
+  EXPECT_NE(result.output.find("cannot read"), std::string::npos) << result.output;
+  std::remove(config.c_str());
+}
+
 }  // namespace
 }  // namespace thicket::mapper

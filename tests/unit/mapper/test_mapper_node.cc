@@ -1,6 +1,7 @@
 // thicket-mapper's node in a memq:// composite: frames wait for their pose, mirrors follow the
 // map through deltas and snapshots, bad input is refused with a reason and never reaches the map.
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 
 #include <gtest/gtest.h>
@@ -12,6 +13,7 @@
 #include "thicket/common/depth_image.h"
 #include "thicket/common/loop.h"
 #include "thicket/common/map_update.h"
+#include "thicket/mapper/map_io.h"
 #include "thicket/sim/render.h"
 
 namespace thicket::mapper {
@@ -225,6 +227,82 @@ TEST_F(MapperNodeTest, BadInputIsRefusedWithAReasonAndNeverReachesTheMap) {
   EXPECT_EQ(mapper.mapper().revision(), 2);
   EXPECT_EQ(mapper.framesRefused(), 5);
   EXPECT_EQ(mapper.mapper().framesRefused(), 2);  // the others never decoded
+}
+
+// A map saved when a node stops is where the next node, told to load it, continues: same layers
+// and revision, mirrors of the new map catch up through a snapshot, and the first frame's ESDF
+// equals one computed from scratch on the continued TSDF.
+TEST_F(MapperNodeTest, SavedMapsAreContinuedByTheNextRun) {
+  for (int k = 0; k < 3; ++k) {
+    const int64_t t = 1'000'000 + k * 500'000;
+    sensors.publish("STATE_ESTIMATE", poseMsg(t, bodyAt(k * 0.5)));
+    sensors.publish("CAMERA_DEPTH", frameAt(renderer, k * 0.5, t));
+    loop.drain();
+  }
+  ASSERT_EQ(mapper.mapper().revision(), 3);
+  EXPECT_EQ(mapper.saveIfConfigured(), "");  // not configured: nothing written
+
+  const std::string path = ::testing::TempDir() + "/mapper_node_continued.map";
+  MapperNodeOptions saving = nodeOptions();
+  saving.save_map = path;
+  {
+    MapperNode stopping(lcm, saving, 42);
+    EXPECT_EQ(stopping.saveIfConfigured(), path);
+    const auto empty = loadMap(path);
+    ASSERT_TRUE(static_cast<bool>(empty)) << empty.error();
+    EXPECT_EQ(empty->revision, 0);
+    EXPECT_EQ(empty->tsdf.numBlocks(), 0u);
+  }
+  saveMap(path, SavedMap{mapper.mapper().tsdf(), mapper.mapper().esdf(), 42, 3, 2'000'000});
+
+  MapperNodeOptions loading = nodeOptions();
+  loading.map_id = 43;
+  loading.load_map = path;
+  lcm::LCM lcm2("memq://");
+  Loop loop2(lcm2);
+  MapperNode next(lcm2, loading, 43);
+  Observer observer2(lcm2);
+  Node sensors2("sensors", lcm2);
+  EXPECT_EQ(next.mapper().revision(), 3);
+  EXPECT_TRUE(identicalLayers(next.mapper().tsdf(), mapper.mapper().tsdf()));
+  EXPECT_TRUE(identicalLayers(next.mapper().esdf(), mapper.mapper().esdf()));
+
+  // The next flight's clock starts over; its first frame continues the map at revision 4.
+  sensors2.publish("STATE_ESTIMATE", poseMsg(100'000, bodyAt(1.5)));
+  sensors2.publish("CAMERA_DEPTH", frameAt(renderer, 1.5, 100'000));
+  loop2.drain();
+  ASSERT_EQ(next.mapper().revision(), 4);
+  ASSERT_NE(observer2.tsdf.layer(), nullptr);
+  EXPECT_EQ(observer2.tsdf.revision(), 4);
+  EXPECT_EQ(observer2.esdf.revision(), 4);
+  EXPECT_TRUE(identicalLayers(*observer2.tsdf.layer(), next.mapper().tsdf()));
+  EXPECT_TRUE(identicalLayers(*observer2.esdf.layer(), next.mapper().esdf()));
+  for (const BlockIndex& b : mapper.mapper().tsdf().blockIndices()) {
+    EXPECT_NE(next.mapper().tsdf().block(b), nullptr);
+  }
+  EXPECT_FALSE(identicalLayers(next.mapper().tsdf(), mapper.mapper().tsdf()));
+  EsdfIntegrator scratch(next.mapper().options().esdf);
+  scratch.setInitialPosition(bodyAt(1.5).position);
+  EsdfLayer expected(next.mapper().options().voxel_size);
+  scratch.recompute(next.mapper().tsdf(), bodyAt(1.5).position, expected);
+  EXPECT_TRUE(identicalLayers(expected, next.mapper().esdf()));
+
+  // What cannot be continued is refused at start, with the reason.
+  auto refusal = [&](const MapperNodeOptions& options) {
+    try {
+      MapperNode refused(lcm2, options, 44);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  MapperNodeOptions missing = loading;
+  missing.load_map = path + ".missing";
+  EXPECT_NE(refusal(missing).find("cannot read"), std::string::npos) << refusal(missing);
+  MapperNodeOptions coarser = loading;
+  coarser.mapper.voxel_size = 0.4;
+  EXPECT_NE(refusal(coarser).find("voxels"), std::string::npos) << refusal(coarser);
+  std::remove(path.c_str());
 }
 
 // The MAP_ESDF messages of a short flight.

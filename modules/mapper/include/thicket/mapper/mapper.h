@@ -20,6 +20,7 @@
 #include "thicket/common/params.h"
 #include "thicket/common/voxel_layer.h"
 #include "thicket/mapper/esdf_integrator.h"
+#include "thicket/mapper/map_io.h"
 #include "thicket/mapper/tsdf_integrator.h"
 
 namespace thicket::mapper {
@@ -75,10 +76,16 @@ class Mapper {
   /// outcome per frame dealt with; updates for the integrated ones.
   std::vector<FrameOutcome> integrateReady(std::vector<MapRevisionUpdate>& updates);
 
+  /// Continues a saved map: adopts its layers, revision and time, before any frame was taken.
+  /// The ESDF is recomputed from the TSDF with the first integrated frame (the unknown-space
+  /// policy follows this flight's poses). Throws std::logic_error once a frame was taken,
+  /// std::invalid_argument when the map's voxel size is not options().voxel_size.
+  void restore(const SavedMap& map);
+
   const TsdfLayer& tsdf() const { return tsdf_; }
   const EsdfLayer& esdf() const { return esdf_; }
   const MapperOptions& options() const { return options_; }
-  /// The current revision: the number of frames integrated.
+  /// The current revision: the number of frames integrated (counting on from a restored map's).
   int64_t revision() const { return revision_; }
   /// Time of the newest integrated frame [µs], 0 before any.
   int64_t utime() const { return utime_; }
