@@ -132,18 +132,18 @@ Derivatives JerkSpline::fixedDerivatives(const SplineEnds& ends) const {
   return d;
 }
 
-void JerkSpline::checkSizes(const Derivatives& fixed, const Derivatives& free) const {
-  if (fixed.rows() != num_fixed_ || free.rows() != num_free_) {
+void JerkSpline::checkSizes(Eigen::Index fixed_rows, Eigen::Index free_rows) const {
+  if (fixed_rows != num_fixed_ || free_rows != num_free_) {
     throw std::invalid_argument("JerkSpline: expected " + std::to_string(num_fixed_) +
                                 " fixed and " + std::to_string(num_free_) +
-                                " free derivatives, got " + std::to_string(fixed.rows()) + " and " +
-                                std::to_string(free.rows()));
+                                " free derivatives, got " + std::to_string(fixed_rows) + " and " +
+                                std::to_string(free_rows));
   }
 }
 
 double JerkSpline::jerkCost(const Derivatives& fixed, const Derivatives& free,
                             Derivatives* gradient) const {
-  checkSizes(fixed, free);
+  checkSizes(fixed.rows(), free.rows());
   const Derivatives fp = r_fp_.transpose() * fixed;  // R_FP' d_F
   const Derivatives pp = r_pp_ * free;
   if (gradient) *gradient = 2 * (fp + pp);
@@ -153,7 +153,7 @@ double JerkSpline::jerkCost(const Derivatives& fixed, const Derivatives& free,
 
 Derivatives JerkSpline::minimumJerkFree(const Derivatives& fixed,
                                         const Eigen::Vector3d& initial_end) const {
-  checkSizes(fixed, Derivatives::Zero(num_free_, 3));
+  checkSizes(fixed.rows(), num_free_);
   // Stationary in the optimized rows S: R_SS d_S = -(R_FS' d_F + R_S,end d_end).
   Derivatives rhs = -r_fp_.transpose() * fixed;
   Eigen::MatrixXd r_ss = r_pp_;
@@ -170,7 +170,7 @@ Derivatives JerkSpline::minimumJerkFree(const Derivatives& fixed,
 
 std::vector<PolynomialSegment> JerkSpline::segments(const Derivatives& fixed,
                                                     const Derivatives& free) const {
-  checkSizes(fixed, free);
+  checkSizes(fixed.rows(), free.rows());
   Derivatives all(num_fixed_ + num_free_, 3);
   all << fixed, free;
   std::vector<PolynomialSegment> result;

@@ -70,7 +70,7 @@ FrameOutcome Mapper::addFrame(DepthImage frame) {
 }
 
 void Mapper::restore(const SavedMap& map) {
-  if (last_frame_utime_ >= 0 || revision_ > 0) {
+  if (last_frame_utime_ >= 0) {
     throw std::logic_error("Mapper::restore: frames were already taken");
   }
   if (map.tsdf.voxelSize() != options_.voxel_size || map.esdf.voxelSize() != options_.voxel_size) {

@@ -3,6 +3,7 @@
 // finite differences, and the minimum-jerk solution is the known optimum.
 #include "thicket/local_planner/spline.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -148,8 +149,8 @@ TEST_P(JerkSplineTest, MinimumJerkIsStationaryAndBeatsPerturbations) {
   }
 }
 
-// Rest to rest along a line over a single segment, the minimum-jerk trajectory with these
-// boundary conditions is symmetric: halfway in time, halfway in space.
+// Rest to rest along a line, over one segment or three, the minimum-jerk trajectory is symmetric:
+// halfway in time, halfway in space.
 TEST(JerkSpline, RestToRestIsSymmetric) {
   for (int segments : {1, 3}) {
     const JerkSpline spline(std::vector<double>(static_cast<size_t>(segments), 2.0 / segments),

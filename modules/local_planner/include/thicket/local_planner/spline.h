@@ -92,7 +92,7 @@ class JerkSpline {
   static Eigen::Matrix<double, kCoefficients, 1> basis(double tau, int derivative);
 
  private:
-  void checkSizes(const Derivatives& fixed, const Derivatives& free) const;
+  void checkSizes(Eigen::Index fixed_rows, Eigen::Index free_rows) const;
 
   std::vector<double> times_;
   bool free_end_;
