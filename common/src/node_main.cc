@@ -1,5 +1,6 @@
 #include "thicket/common/node_main.h"
 
+#include <cstdio>
 #include <cstdlib>
 
 namespace thicket {
@@ -42,6 +43,11 @@ Expected<NodeArgs> parseNodeArgs(int argc, const char* const* argv) {
     *target = value;
   }
   return args;
+}
+
+int failNode(const std::string& program, const std::string& message) {
+  std::fprintf(stderr, "%s: %s\n", program.c_str(), message.c_str());
+  return 2;
 }
 
 std::string commonNodeFlagsHelp() {

@@ -83,9 +83,11 @@ JerkSpline::JerkSpline(std::vector<double> segment_times, bool free_end_position
       if (fixed[u]) column[u] = num_fixed_++;
     }
   }
+  free_rows_.assign(column.size(), -1);
   for (size_t u = 0; u < column.size(); ++u) {
     if (fixed[u]) continue;
     if (u == static_cast<size_t>(last * kVertexDerivatives)) end_position_row_ = num_free_;
+    free_rows_[u] = num_free_;
     column[u] = num_fixed_ + num_free_++;
   }
 
@@ -109,6 +111,11 @@ JerkSpline::JerkSpline(std::vector<double> segment_times, bool free_end_position
   r_ff_ = r.topLeftCorner(num_fixed_, num_fixed_);
   r_fp_ = r.topRightCorner(num_fixed_, num_free_);
   r_pp_ = r.bottomRightCorner(num_free_, num_free_);
+}
+
+int JerkSpline::freeRow(int vertex, int order) const {
+  if (vertex < 0 || vertex > numSegments() || order < 0 || order >= kVertexDerivatives) return -1;
+  return free_rows_[static_cast<size_t>(vertex * kVertexDerivatives + order)];
 }
 
 double JerkSpline::duration() const {

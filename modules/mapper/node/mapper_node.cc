@@ -9,6 +9,7 @@
 
 #include "thicket/common/depth_image.h"
 #include "thicket/common/map_update.h"
+#include "thicket/common/statistics.h"
 
 namespace thicket::mapper {
 
@@ -22,17 +23,6 @@ void MapperNodeOptions::declare(Params& p) {
   p("load_map", load_map, "a saved map to continue from; empty: start with an empty map");
   p("save_map", save_map, "where to save the map when the node stops; empty: not saved");
 }
-
-namespace {
-
-double median(std::vector<double> values) {
-  if (values.empty()) return 0;
-  const size_t mid = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + mid, values.end());
-  return values[mid];
-}
-
-}  // namespace
 
 MapperNode::MapperNode(lcm::LCM& lcm, const MapperNodeOptions& options, int64_t map_id,
                        std::function<double()> now_ms)

@@ -1,10 +1,13 @@
 // What every thicket-<module> executable shares: the LCM URL default and the common flags.
 #pragma once
 
+#include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "thicket/common/expected.h"
+#include "thicket/common/params.h"
 
 namespace thicket {
 
@@ -27,5 +30,39 @@ Expected<NodeArgs> parseNodeArgs(int argc, const char* const* argv);
 
 /// The help text of the common flags, for a node's usage message.
 std::string commonNodeFlagsHelp();
+
+/// Prints "<program>: <message>" to stderr and returns 2, the exit code of a refused start.
+int failNode(const std::string& program, const std::string& message);
+
+/// The start of a node's main that takes no arguments of its own: `<program> params` prints every
+/// option with its default; -h/--help prints `usage` and the common flags; any other argument is
+/// refused; --config loads `options`. Returns the exit code when main should return now (0 after
+/// params or help, 2 with a message on an error), else nothing and fills `args`.
+template <class Options>
+std::optional<int> startNode(int argc, char** argv, const std::string& program,
+                             const std::string& usage, NodeArgs& args, Options& options) {
+  if (argc >= 2 && std::string(argv[1]) == "params") {
+    std::printf("%s", describeParams<Options>().c_str());
+    return 0;
+  }
+  auto parsed = parseNodeArgs(argc, argv);
+  if (!parsed) return failNode(program, parsed.error());
+  if (parsed->help) {
+    std::printf("%s%s", usage.c_str(), commonNodeFlagsHelp().c_str());
+    return 0;
+  }
+  if (!parsed->options.empty()) {
+    return failNode(program, "unexpected argument '" + parsed->options.front() + "'");
+  }
+  if (!parsed->config_path.empty()) {
+    try {
+      options = loadParams<Options>(parsed->config_path);
+    } catch (const ParamError& e) {
+      return failNode(program, e.what());
+    }
+  }
+  args = *parsed;
+  return std::nullopt;
+}
 
 }  // namespace thicket

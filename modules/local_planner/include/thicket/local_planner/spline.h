@@ -66,6 +66,9 @@ class JerkSpline {
   int numFree() const { return num_free_; }
   /// The row of the end position in the free derivatives (free end only), else -1.
   int endPositionRow() const { return free_end_ ? end_position_row_ : -1; }
+  /// The row of vertex `vertex`'s derivative of order `order` in the free derivatives, or -1 when
+  /// it is fixed. Vertex 0 is the start, numSegments() the end.
+  int freeRow(int vertex, int order) const;
 
   /// d_F for these ends. Throws std::invalid_argument if a value is not finite.
   Derivatives fixedDerivatives(const SplineEnds& ends) const;
@@ -99,6 +102,7 @@ class JerkSpline {
   int num_fixed_ = 0;
   int num_free_ = 0;
   int end_position_row_ = -1;
+  std::vector<int> free_rows_;  // per vertex derivative 5 v + r: its free row, or -1
   std::vector<Eigen::MatrixXd> coefficient_maps_;  // per segment: [d_F; d_P] -> coefficients
   Eigen::MatrixXd r_ff_, r_fp_, r_pp_;             // the partitions of R
 };

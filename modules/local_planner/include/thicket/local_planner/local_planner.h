@@ -1,0 +1,159 @@
+// The local planner's core (DESIGN §1–2): the goal state machine around goal finding and loco.
+//
+// Goals. The operator's mission goal (waypoints, tracked in order) is the global goal. When a
+// cycle cannot plan toward it, the cycle is "stuck": with an explorer in the graph the planner
+// asks for an intermediate goal and waits for the answer before closing the cycle; an
+// intermediate goal (or waypoint list) is then tracked until it is reached or cannot be planned
+// toward, and the planner returns to the global goal. Waypoints are reached within a tolerance.
+//
+// Commitment. Each cycle plans from the *reference*: the committed trajectory at the cycle's
+// time (the estimate only when there is no committed trajectory or the two diverge). A cycle that
+// finds no acceptable trajectory commits nothing, so the vehicle keeps flying the previous
+// trajectory, which ends at rest in space that was free (it hovers there). Without a map, a
+// fresh one or a state estimate the planner holds: it commits a hover trajectory if nothing is
+// committed yet, and says why.
+//
+// No LCM and no clock inside: time comes from the caller (message utimes); wall-clock time is
+// only measured (now_ms) for the reported solve time.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "thicket/common/params.h"
+#include "thicket/common/polynomial_trajectory.h"
+#include "thicket/local_planner/goal_finder.h"
+#include "thicket/local_planner/loco.h"
+
+namespace thicket::local_planner {
+
+/// A goal as the planner tracks it (goal_t without the transport).
+struct Goal {
+  int64_t id = -1;
+  bool from_explorer = false;
+  std::string strategy;  ///< the exploration strategy that proposed it
+  std::vector<Eigen::Vector3d> waypoints;
+  double tolerance = 0;  ///< a waypoint is reached within this [m]; 0: the planner's default
+};
+
+/// A state estimate of the vehicle.
+struct VehicleState {
+  int64_t utime = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+};
+
+enum class CycleState { kPlanned, kStuck, kGoalReached, kHolding, kNoMap, kNoState };
+const char* cycleStateName(CycleState state);
+
+/// What one cycle (or the answer to a stuck cycle) did.
+struct CycleReport {
+  int64_t utime = 0;  ///< the time planned from [µs]
+  int64_t cycle = 0;
+  bool is_final = true;
+  CycleState state = CycleState::kHolding;
+  std::string reason;  ///< why, in words (empty when planned)
+  int64_t map_revision = -1;
+  /// The goal tracked: id -1 when there is none.
+  int64_t goal_id = -1;
+  bool goal_from_explorer = false;
+  Eigen::Vector3d goal = Eigen::Vector3d::Zero();
+  Eigen::Vector3d horizon_goal = Eigen::Vector3d::Zero();
+  TrajectoryState start;  ///< the reference the cycle planned from
+  LocoResult loco;        ///< the last optimization of the cycle (empty if none ran)
+  double solve_ms = 0;    ///< wall-clock time of goal finding and optimization (measured)
+  /// A trajectory committed by this cycle, to publish; absent when the committed one stands.
+  std::optional<PolynomialTrajectory> trajectory;
+};
+
+struct LocalPlannerOptions {
+  LocoOptions loco;
+  GoalFinderOptions goal_finder;
+  /// Let the end point move (the soft goal J_g); false fixes the end at the horizon goal.
+  bool soft_goal = true;
+  double goal_tolerance = 0.2;  ///< waypoints are reached within this unless the goal says [m]
+  /// A trajectory must end at least this much closer to the horizon goal than it starts (or
+  /// within goal_tolerance of it); one that does not is no plan: the cycle is stuck [m].
+  double min_progress = 0.2;
+  /// Plan from the estimate instead of the reference when they are farther apart [m].
+  double max_divergence = 0.5;
+  double max_state_age = 0.5;  ///< an estimate older than this at the cycle's time is stale [s]
+  double max_map_age = 2.0;    ///< a map older than this at the cycle's time is stale [s]
+  /// Goals must lie in this box [m].
+  Eigen::Vector3d flight_volume_min = Eigen::Vector3d(-1000, -1000, 0);
+  Eigen::Vector3d flight_volume_max = Eigen::Vector3d(1000, 1000, 100);
+  /// An explorer is in the graph: a stuck cycle asks it for an intermediate goal and stays open
+  /// until it answers.
+  bool use_explorer = false;
+  int64_t seed = 0;  ///< random restarts draw from seed ⊕ cycle
+  /// The duration of a hover trajectory [s].
+  double hover_duration = 1.0;
+
+  void declare(Params& p);
+};
+
+class LocalPlanner {
+ public:
+  /// now_ms measures the solve time (never used to decide). Throws std::invalid_argument on bad
+  /// options.
+  explicit LocalPlanner(LocalPlannerOptions options, std::function<double()> now_ms = {});
+
+  const LocalPlannerOptions& options() const { return options_; }
+
+  /// Checks a goal (waypoints present, finite, in the flight volume, tolerance >= 0); returns
+  /// why it is refused, or nothing.
+  std::optional<std::string> validate(const Goal& goal) const;
+  /// Replaces the global goal (and drops any intermediate goal). Returns the refusal, if any;
+  /// a refused goal changes nothing.
+  std::optional<std::string> setMissionGoal(const Goal& goal);
+  /// Drops every goal: the vehicle finishes its trajectory and holds.
+  void cancel();
+
+  /// One planning cycle at `utime` on `field` (nullptr: no map) whose newest data is from
+  /// `map_utime`, revision `map_revision`, with the newest state estimate (if any).
+  CycleReport plan(int64_t utime, const DistanceField* field, int64_t map_utime,
+                   int64_t map_revision, const std::optional<VehicleState>& estimate);
+
+  /// The cycle waiting for an intermediate goal, if any.
+  std::optional<int64_t> waitingCycle() const;
+  /// Answers the waiting cycle: `goal` is an intermediate goal, or nothing when the explorer
+  /// found none (`reason` says why). Plans toward it on `field` and closes the cycle. Throws
+  /// std::logic_error when no cycle is waiting.
+  CycleReport answer(const std::optional<Goal>& goal, const std::string& reason,
+                     const DistanceField* field);
+
+  /// The committed trajectory, if any.
+  const std::optional<PolynomialTrajectory>& committed() const { return committed_; }
+  const std::optional<Goal>& missionGoal() const { return mission_; }
+  const std::optional<Goal>& intermediateGoal() const { return intermediate_; }
+  int64_t cycles() const { return cycle_; }
+
+ private:
+  // Plans toward the current waypoint of the tracked goal; fills the report, commits on success.
+  bool planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
+                  CycleReport& report);
+  void hold(CycleReport& report, CycleState state, const std::string& reason,
+            const std::optional<VehicleState>& estimate);
+  // Advances past reached waypoints; true when the whole goal is reached.
+  bool advanceWaypoints(const Goal& goal, size_t& waypoint, const Eigen::Vector3d& position) const;
+
+  LocalPlannerOptions options_;
+  std::function<double()> now_ms_;
+  Loco loco_;
+  GoalFinder goal_finder_;
+  std::optional<Goal> mission_;
+  size_t mission_waypoint_ = 0;
+  std::optional<Goal> intermediate_;
+  size_t intermediate_waypoint_ = 0;
+  std::optional<PolynomialTrajectory> committed_;
+  int64_t cycle_ = 0;
+  // The stuck cycle waiting for the explorer: its report so far.
+  std::optional<CycleReport> waiting_;
+};
+
+}  // namespace thicket::local_planner

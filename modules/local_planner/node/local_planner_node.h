@@ -1,0 +1,79 @@
+// thicket-local-planner as an LCM node: MAP_ESDF (mirrored), STATE_ESTIMATE, MISSION_GOAL and
+// EXPLORER_GOAL in; PLANNER_TRAJECTORY, PLANNER_STATUS, CONTROL_SETPOINT, MODULE_TIMING and
+// MAP_REQUEST (to heal the mirror) out.
+//
+// In simulation and replay (replan_rate 0) every new ESDF revision triggers one cycle at the
+// revision's time, as soon as a state estimate at that time has arrived. On the vehicle
+// (replan_rate > 0) the executable's timer calls replan() instead.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <thicket/goal_t.hpp>
+#include <thicket/map_update_t.hpp>
+#include <thicket/odometry_t.hpp>
+
+#include "thicket/common/map_update.h"
+#include "thicket/common/node.h"
+#include "thicket/common/params.h"
+#include "thicket/local_planner/local_planner.h"
+
+namespace thicket::local_planner {
+
+struct LocalPlannerNodeOptions {
+  LocalPlannerOptions planner;
+  std::string state_channel = "STATE_ESTIMATE";
+  /// Cycles per wall-clock second on the vehicle; 0: one cycle per new ESDF revision.
+  double replan_rate = 0;
+  /// CONTROL_SETPOINT messages per wall-clock second (the executable's timer); 0: none.
+  double setpoint_rate = 50;
+
+  void declare(Params& p);
+};
+
+class LocalPlannerNode : public Node {
+ public:
+  /// now_ms measures durations for MODULE_TIMING (never used to decide).
+  LocalPlannerNode(lcm::LCM& lcm, const LocalPlannerNodeOptions& options,
+                   std::function<double()> now_ms = {});
+
+  const LocalPlanner& planner() const { return planner_; }
+  const MapMirror<EsdfVoxel>& mirror() const { return mirror_; }
+
+  /// One cycle now, on the newest map and state, at the newest state's time (the vehicle's
+  /// replan timer).
+  void replan();
+  /// Publishes the committed trajectory's reference at `utime` on CONTROL_SETPOINT; false when
+  /// nothing is committed.
+  bool publishSetpoint(int64_t utime);
+  /// The newest state estimate, if any.
+  const std::optional<VehicleState>& latestState() const { return state_; }
+
+  /// "N cycles (planned P, stuck S, ...); optimization median X ms, p95 Y ms".
+  std::string summary() const;
+
+ private:
+  void onMap(const map_update_t& msg);
+  void onState(const odometry_t& msg);
+  void onMissionGoal(const goal_t& msg);
+  void onExplorerGoal(const goal_t& msg);
+  void runPending();
+  void runCycle(int64_t utime);
+  void publishReport(const CycleReport& report);
+  void publishRejection(const goal_t& msg, const std::string& reason);
+
+  LocalPlannerNodeOptions options_;
+  std::function<double()> now_ms_;
+  LocalPlanner planner_;
+  MapMirror<EsdfVoxel> mirror_;
+  std::optional<VehicleState> state_;
+  std::optional<int64_t> pending_;  // a revision's time waiting for its state estimate
+  double last_yaw_ = 0;
+  std::vector<double> solve_ms_;
+  std::vector<int64_t> state_counts_;
+};
+
+}  // namespace thicket::local_planner

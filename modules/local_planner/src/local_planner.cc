@@ -1,0 +1,290 @@
+#include "thicket/local_planner/local_planner.h"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "thicket/common/time.h"
+
+namespace thicket::local_planner {
+
+const char* cycleStateName(CycleState state) {
+  switch (state) {
+    case CycleState::kPlanned:
+      return "planned";
+    case CycleState::kStuck:
+      return "stuck";
+    case CycleState::kGoalReached:
+      return "goal reached";
+    case CycleState::kHolding:
+      return "holding";
+    case CycleState::kNoMap:
+      return "no map";
+    case CycleState::kNoState:
+      return "no state";
+  }
+  return "?";
+}
+
+void LocalPlannerOptions::declare(Params& p) {
+  p.group("loco", loco, "the trajectory optimization");
+  p.group("goal_finder", goal_finder, "the horizon goal and how it is moved out of collision");
+  p("soft_goal", soft_goal, "let the trajectory's end move (the soft goal cost)");
+  p("goal_tolerance", goal_tolerance, "waypoints are reached within this [m]", Range::positive());
+  p("min_progress", min_progress,
+    "a trajectory must end this much closer to the horizon goal than it starts [m]",
+    Range::atLeast(0));
+  p("max_divergence", max_divergence,
+    "plan from the estimate when it is farther than this from the reference [m]",
+    Range::positive());
+  p("max_state_age", max_state_age, "older state estimates are stale [s]", Range::positive());
+  p("max_map_age", max_map_age, "older maps are stale [s]", Range::positive());
+  p("flight_volume_min", flight_volume_min, "goals must lie in this box: its low corner [m]");
+  p("flight_volume_max", flight_volume_max, "... and its high corner [m]");
+  p("use_explorer", use_explorer,
+    "an explorer is running: stuck cycles wait for its intermediate goal");
+  p("seed", seed, "random restarts draw from seed and the cycle");
+  p("hover_duration", hover_duration, "duration of a hover trajectory [s]", Range::positive());
+}
+
+namespace {
+
+uint64_t mixSeed(int64_t seed, int64_t cycle) {
+  // splitmix64 of the pair, so neighbouring cycles get unrelated restarts.
+  uint64_t z = static_cast<uint64_t>(seed) * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(cycle);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+std::string format(const char* pattern, double a, double b = 0, double c = 0) {
+  char text[160];
+  std::snprintf(text, sizeof(text), pattern, a, b, c);
+  return text;
+}
+
+}  // namespace
+
+LocalPlanner::LocalPlanner(LocalPlannerOptions options, std::function<double()> now_ms)
+    : options_(std::move(options)),
+      now_ms_(now_ms ? std::move(now_ms) : [] { return 0.0; }),
+      loco_(options_.loco),
+      goal_finder_(options_.goal_finder,
+                   options_.loco.robot_radius + options_.loco.clearance_margin) {
+  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
+  if (!positive(options_.goal_tolerance) ||
+      !(std::isfinite(options_.min_progress) && options_.min_progress >= 0) ||
+      !positive(options_.max_divergence) || !positive(options_.max_state_age) ||
+      !positive(options_.max_map_age) || !positive(options_.hover_duration) ||
+      !options_.flight_volume_min.allFinite() || !options_.flight_volume_max.allFinite() ||
+      !(options_.flight_volume_min.array() < options_.flight_volume_max.array()).all()) {
+    throw std::invalid_argument(
+        "LocalPlanner: an option is out of range (see LocalPlannerOptions)");
+  }
+}
+
+std::optional<std::string> LocalPlanner::validate(const Goal& goal) const {
+  if (goal.waypoints.empty()) return "the goal has no waypoints";
+  if (!(std::isfinite(goal.tolerance) && goal.tolerance >= 0)) {
+    return "the goal tolerance must be finite and >= 0";
+  }
+  for (size_t i = 0; i < goal.waypoints.size(); ++i) {
+    const Eigen::Vector3d& w = goal.waypoints[i];
+    if (!w.allFinite()) return "waypoint " + std::to_string(i) + " is not finite";
+    if ((w.array() < options_.flight_volume_min.array()).any() ||
+        (w.array() > options_.flight_volume_max.array()).any()) {
+      return "waypoint " + std::to_string(i) +
+             format(" (%.2f, %.2f, %.2f) is outside the flight volume", w.x(), w.y(), w.z());
+    }
+  }
+  return std::nullopt;
+}
+
+std::optional<std::string> LocalPlanner::setMissionGoal(const Goal& goal) {
+  if (auto refused = validate(goal)) return refused;
+  mission_ = goal;
+  mission_waypoint_ = 0;
+  intermediate_.reset();
+  return std::nullopt;
+}
+
+void LocalPlanner::cancel() {
+  mission_.reset();
+  intermediate_.reset();
+}
+
+std::optional<int64_t> LocalPlanner::waitingCycle() const {
+  if (!waiting_) return std::nullopt;
+  return waiting_->cycle;
+}
+
+bool LocalPlanner::advanceWaypoints(const Goal& goal, size_t& waypoint,
+                                    const Eigen::Vector3d& position) const {
+  const double tolerance = goal.tolerance > 0 ? goal.tolerance : options_.goal_tolerance;
+  while (waypoint < goal.waypoints.size() &&
+         (goal.waypoints[waypoint] - position).norm() <= tolerance) {
+    ++waypoint;
+  }
+  return waypoint == goal.waypoints.size();
+}
+
+void LocalPlanner::hold(CycleReport& report, CycleState state, const std::string& reason,
+                        const std::optional<VehicleState>& estimate) {
+  report.state = state;
+  report.reason = reason;
+  if (!committed_ && estimate) {
+    committed_ =
+        PolynomialTrajectory::hover(report.utime, estimate->position, options_.hover_duration);
+    report.trajectory = committed_;
+    report.start.position = estimate->position;
+  }
+}
+
+bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
+                              CycleReport& report) {
+  const Eigen::Vector3d& target = goal.waypoints[waypoint];
+  report.goal_id = goal.id;
+  report.goal_from_explorer = goal.from_explorer;
+  report.goal = target;
+  const double t0 = now_ms_();
+  const FoundGoal found = goal_finder_.find(report.start.position, target, field);
+  report.horizon_goal = found.position;
+  if (!found.free && !options_.soft_goal) {
+    report.loco = LocoResult{};
+    report.solve_ms += now_ms_() - t0;
+    report.reason = format("no free horizon goal found; the search ended at (%.2f, %.2f, %.2f)",
+                           found.position.x(), found.position.y(), found.position.z());
+    return false;
+  }
+  SplineEnds ends;
+  ends.start_position = report.start.position;
+  ends.start_velocity = report.start.velocity;
+  ends.start_acceleration = report.start.acceleration;
+  ends.end_position = found.position;
+  report.loco = loco_.solve(ends, options_.soft_goal, field, mixSeed(options_.seed, report.cycle));
+  report.solve_ms += now_ms_() - t0;
+  if (!report.loco.accepted) {
+    report.reason = format("no acceptable trajectory toward (%.2f, %.2f, %.2f): ", target.x(),
+                           target.y(), target.z()) +
+                    report.loco.reason;
+    return false;
+  }
+  const double start_gap = (found.position - report.start.position).norm();
+  const double end_gap = (found.position - report.loco.end_position).norm();
+  if (end_gap > options_.goal_tolerance && end_gap > start_gap - options_.min_progress) {
+    report.reason =
+        format("no progress toward (%.2f, %.2f, %.2f): ", target.x(), target.y(), target.z()) +
+        format(
+            "the best trajectory ends %.2f m from the horizon goal, %.2f m at the "
+            "start",
+            end_gap, start_gap);
+    return false;
+  }
+  auto trajectory = PolynomialTrajectory::create(report.utime, report.loco.segments);
+  if (!trajectory) {
+    report.reason = "the optimizer returned an invalid trajectory: " + trajectory.error();
+    return false;
+  }
+  committed_ = *trajectory;
+  report.trajectory = committed_;
+  report.state = CycleState::kPlanned;
+  report.reason.clear();
+  return true;
+}
+
+CycleReport LocalPlanner::plan(int64_t utime, const DistanceField* field, int64_t map_utime,
+                               int64_t map_revision, const std::optional<VehicleState>& estimate) {
+  CycleReport report;
+  report.utime = utime;
+  report.cycle = ++cycle_;
+  report.map_revision = map_revision;
+  // A stuck cycle the explorer never answered is abandoned by the next one.
+  waiting_.reset();
+
+  if (!estimate) {
+    hold(report, CycleState::kNoState, "no state estimate yet", estimate);
+    return report;
+  }
+  if (const double age = toSeconds(utime - estimate->utime); age > options_.max_state_age) {
+    hold(report, CycleState::kNoState, format("the state estimate is %.2f s old", age), estimate);
+    return report;
+  }
+  // The reference: the committed trajectory now, unless the vehicle is elsewhere.
+  if (committed_) report.start = committed_->stateAtUtime(utime);
+  if (!committed_ ||
+      (report.start.position - estimate->position).norm() > options_.max_divergence) {
+    report.start = TrajectoryState{};
+    report.start.position = estimate->position;
+    report.start.velocity = estimate->velocity;
+  }
+  if (field == nullptr) {
+    hold(report, CycleState::kNoMap, "no map yet", estimate);
+    return report;
+  }
+  if (const double age = toSeconds(utime - map_utime); age > options_.max_map_age) {
+    hold(report, CycleState::kNoMap, format("the map is %.2f s old", age), estimate);
+    return report;
+  }
+  if (!mission_) {
+    hold(report, CycleState::kHolding, "no goal", estimate);
+    return report;
+  }
+
+  std::string dropped;
+  if (intermediate_) {
+    if (advanceWaypoints(*intermediate_, intermediate_waypoint_, report.start.position)) {
+      intermediate_.reset();
+    } else if (planToward(*intermediate_, intermediate_waypoint_, *field, report)) {
+      return report;
+    } else {
+      dropped = "intermediate goal " + std::to_string(intermediate_->id) + " dropped (" +
+                report.reason + "); ";
+      intermediate_.reset();
+    }
+  }
+  if (advanceWaypoints(*mission_, mission_waypoint_, report.start.position)) {
+    report.goal_id = mission_->id;
+    report.goal = mission_->waypoints.back();
+    report.horizon_goal = report.goal;
+    report.state = CycleState::kGoalReached;
+    report.reason = "goal reached";
+    return report;
+  }
+  if (planToward(*mission_, mission_waypoint_, *field, report)) return report;
+  report.state = CycleState::kStuck;
+  report.reason = dropped + report.reason;
+  if (options_.use_explorer) {
+    report.is_final = false;
+    waiting_ = report;
+  }
+  return report;
+}
+
+CycleReport LocalPlanner::answer(const std::optional<Goal>& goal, const std::string& reason,
+                                 const DistanceField* field) {
+  if (!waiting_) throw std::logic_error("LocalPlanner::answer: no cycle is waiting");
+  CycleReport report = *waiting_;
+  waiting_.reset();
+  report.is_final = true;
+  report.trajectory.reset();
+  const std::string stuck = report.reason;
+  const auto give_up = [&](const std::string& why) {
+    report.state = CycleState::kHolding;
+    report.reason = "stuck (" + stuck + "); " + why;
+    return report;
+  };
+  if (!goal) return give_up("the explorer has no intermediate goal: " + reason);
+  if (auto refused = validate(*goal)) return give_up("intermediate goal refused: " + *refused);
+  if (field == nullptr) return give_up("no map");
+  intermediate_ = *goal;
+  intermediate_waypoint_ = 0;
+  if (advanceWaypoints(*intermediate_, intermediate_waypoint_, report.start.position)) {
+    intermediate_.reset();
+    return give_up("the intermediate goal is where the vehicle already is");
+  }
+  if (planToward(*intermediate_, intermediate_waypoint_, *field, report)) return report;
+  intermediate_.reset();
+  return give_up("the intermediate goal is infeasible too: " + report.reason);
+}
+
+}  // namespace thicket::local_planner

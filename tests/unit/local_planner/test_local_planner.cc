@@ -1,0 +1,687 @@
+// The local planner's core (the goal state machine around goal finding and loco) driven with
+// analytic distance fields and explicit times: goal validation, holding without state or map,
+// planning from the reference, flying to a goal and through waypoints, getting stuck and asking
+// the explorer, intermediate goals, determinism. Every trajectory the planner commits here is
+// checked every 0.01 s against the exact field: distance >= robot radius, v_max and a_max kept.
+#include "thicket/local_planner/local_planner.h"
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "analytic_fields.h"
+
+namespace thicket::local_planner {
+namespace {
+
+using testing::boxesField;
+using testing::boxFromCorners;
+using testing::cylinderField;
+using testing::freeSpace;
+using testing::inspectTrajectory;
+
+constexpr int64_t kSecond = 1'000'000;
+constexpr int64_t kT0 = 100 * kSecond;
+const Eigen::Vector3d kStart(0, 0, 1.5);
+const Eigen::Vector3d kMission(10, 0, 1.5);
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+Goal goalAt(int64_t id, std::vector<Eigen::Vector3d> waypoints, bool from_explorer = false) {
+  Goal goal;
+  goal.id = id;
+  goal.from_explorer = from_explorer;
+  if (from_explorer) goal.strategy = "local_exploration";
+  goal.waypoints = std::move(waypoints);
+  return goal;
+}
+
+VehicleState stateAt(int64_t utime, const Eigen::Vector3d& position,
+                     const Eigen::Vector3d& velocity = Eigen::Vector3d::Zero()) {
+  VehicleState state;
+  state.utime = utime;
+  state.position = position;
+  state.velocity = velocity;
+  return state;
+}
+
+// A wall across the way to kMission: x in [2.5, 3.5], spanning y and z far beyond the flight.
+DistanceField wall() {
+  return boxesField({boxFromCorners({2.5, -50, -50}, {3.5, 50, 150})});
+}
+
+bool sameSegments(const PolynomialTrajectory& a, const PolynomialTrajectory& b) {
+  if (a.startUtime() != b.startUtime() || a.numSegments() != b.numSegments()) return false;
+  for (int i = 0; i < a.numSegments(); ++i) {
+    const PolynomialSegment& sa = a.segments()[static_cast<size_t>(i)];
+    const PolynomialSegment& sb = b.segments()[static_cast<size_t>(i)];
+    if (sa.duration != sb.duration || sa.coefficients.cols() != sb.coefficients.cols() ||
+        sa.coefficients != sb.coefficients) {
+      return false;
+    }
+  }
+  return true;
+}
+
+// The independent check of every accepted trajectory: every 0.01 s against the exact field.
+void expectSafe(const PolynomialTrajectory& trajectory, const DistanceField& field,
+                const LocoOptions& o) {
+  const testing::TrajectoryReport r = inspectTrajectory(trajectory, field, 0.01);
+  EXPECT_TRUE(r.all_known);
+  EXPECT_GE(r.min_distance, o.robot_radius) << "at t = " << r.min_distance_time << " s";
+  EXPECT_LE(r.max_speed, o.v_max + 1e-6);
+  EXPECT_LE(r.max_acceleration, o.a_max + 1e-6);
+}
+
+// A committed trajectory starts at the cycle's time from the state the cycle planned from.
+void expectStartsAtReport(const CycleReport& report) {
+  ASSERT_TRUE(report.trajectory);
+  EXPECT_EQ(report.trajectory->startUtime(), report.utime);
+  const TrajectoryState s = report.trajectory->state(0);
+  EXPECT_NEAR((s.position - report.start.position).norm(), 0, 1e-9);
+  EXPECT_NEAR((s.velocity - report.start.velocity).norm(), 0, 1e-9);
+  EXPECT_NEAR((s.acceleration - report.start.acceleration).norm(), 0, 1e-9);
+}
+
+// A planner and a vehicle that flies exactly what it commits: each cycle's estimate is the
+// committed trajectory's state at the cycle's time (the start, at rest, before anything is
+// committed), the map is fresh, and the cycles are 1 s apart.
+class Pilot {
+ public:
+  explicit Pilot(LocalPlannerOptions options = {}, const Eigen::Vector3d& start = kStart)
+      : planner(std::move(options)), start_(start) {}
+
+  VehicleState estimate() const {
+    if (!planner.committed()) return stateAt(t, start_);
+    const TrajectoryState s = planner.committed()->stateAtUtime(t);
+    return stateAt(t, s.position, s.velocity);
+  }
+
+  // One cycle at t on `field`; checks what it commits; advances t by 1 s.
+  CycleReport cycle(const DistanceField& field) {
+    const CycleReport report = planner.plan(t, &field, t, ++revision, estimate());
+    check(report, field);
+    t += kSecond;
+    return report;
+  }
+
+  // Checks a report's trajectory (a plan() or an answer()).
+  void check(const CycleReport& report, const DistanceField& field) const {
+    if (report.state == CycleState::kPlanned) {
+      EXPECT_TRUE(report.trajectory) << "cycle " << report.cycle;
+      EXPECT_TRUE(report.reason.empty()) << report.reason;
+    }
+    if (!report.trajectory) return;
+    SCOPED_TRACE("cycle " + std::to_string(report.cycle));
+    expectStartsAtReport(report);
+    expectSafe(*report.trajectory, field, planner.options().loco);
+    ASSERT_TRUE(planner.committed());
+    EXPECT_TRUE(sameSegments(*planner.committed(), *report.trajectory));
+  }
+
+  LocalPlanner planner;
+  int64_t t = kT0;
+  int64_t revision = 0;
+
+ private:
+  Eigen::Vector3d start_;
+};
+
+// ---- goals ----
+
+TEST(LocalPlanner, RefusesMalformedGoalsWithAReason) {
+  const LocalPlanner planner{LocalPlannerOptions{}};
+  EXPECT_FALSE(planner.validate(goalAt(1, {kMission})));
+  EXPECT_FALSE(planner.validate(goalAt(1, {kMission, Eigen::Vector3d(3, 4, 2)})));
+
+  const auto refusal = [&](const Goal& goal) {
+    const std::optional<std::string> why = planner.validate(goal);
+    return why ? *why : std::string("(accepted)");
+  };
+  Goal nan_goal = goalAt(1, {kMission, Eigen::Vector3d(1, std::nan(""), 1)});
+  EXPECT_TRUE(contains(refusal(nan_goal), "waypoint 1")) << refusal(nan_goal);
+  EXPECT_TRUE(contains(refusal(nan_goal), "not finite")) << refusal(nan_goal);
+  const Goal empty = goalAt(2, {});
+  EXPECT_TRUE(contains(refusal(empty), "no waypoints")) << refusal(empty);
+  const Goal outside = goalAt(3, {Eigen::Vector3d(5, 0, -1)});  // below the ground (z >= 0)
+  EXPECT_TRUE(contains(refusal(outside), "outside the flight volume")) << refusal(outside);
+  const Goal far_away = goalAt(4, {Eigen::Vector3d(2000, 0, 1)});
+  EXPECT_TRUE(contains(refusal(far_away), "outside the flight volume")) << refusal(far_away);
+  Goal negative = goalAt(5, {kMission});
+  negative.tolerance = -0.1;
+  EXPECT_TRUE(contains(refusal(negative), "tolerance")) << refusal(negative);
+  Goal nan_tolerance = goalAt(6, {kMission});
+  nan_tolerance.tolerance = std::nan("");
+  EXPECT_TRUE(contains(refusal(nan_tolerance), "tolerance")) << refusal(nan_tolerance);
+
+  // A custom flight volume is honoured.
+  LocalPlannerOptions options;
+  options.flight_volume_min = Eigen::Vector3d(-5, -5, 0.5);
+  options.flight_volume_max = Eigen::Vector3d(5, 5, 3);
+  const LocalPlanner boxed(options);
+  EXPECT_TRUE(boxed.validate(goalAt(1, {kMission})));  // x = 10 > 5
+  EXPECT_FALSE(boxed.validate(goalAt(1, {Eigen::Vector3d(4, -4, 1)})));
+}
+
+TEST(LocalPlanner, ARefusedMissionGoalKeepsThePreviousOne) {
+  LocalPlanner planner{LocalPlannerOptions{}};
+  EXPECT_FALSE(planner.missionGoal());
+  ASSERT_FALSE(planner.setMissionGoal(goalAt(7, {kMission})));
+  ASSERT_TRUE(planner.missionGoal());
+
+  const std::optional<std::string> refused =
+      planner.setMissionGoal(goalAt(8, {Eigen::Vector3d(std::nan(""), 0, 1)}));
+  ASSERT_TRUE(refused);
+  EXPECT_TRUE(contains(*refused, "not finite")) << *refused;
+  ASSERT_TRUE(planner.missionGoal());
+  EXPECT_EQ(planner.missionGoal()->id, 7);
+  ASSERT_EQ(planner.missionGoal()->waypoints.size(), 1u);
+  EXPECT_EQ(planner.missionGoal()->waypoints[0], kMission);
+
+  EXPECT_TRUE(planner.setMissionGoal(goalAt(9, {})));
+  EXPECT_EQ(planner.missionGoal()->id, 7);
+
+  // The kept goal is the one planned toward.
+  const DistanceField field = freeSpace();
+  const CycleReport report = planner.plan(kT0, &field, kT0, 1, stateAt(kT0, kStart));
+  EXPECT_EQ(report.state, CycleState::kPlanned) << report.reason;
+  EXPECT_EQ(report.goal_id, 7);
+  EXPECT_EQ(report.goal, kMission);
+
+  planner.cancel();
+  EXPECT_FALSE(planner.missionGoal());
+  EXPECT_FALSE(planner.intermediateGoal());
+}
+
+// ---- holding ----
+
+TEST(LocalPlanner, HoldsWithoutAFreshStateEstimate) {
+  LocalPlanner planner{LocalPlannerOptions{}};
+  ASSERT_FALSE(planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField field = freeSpace();
+
+  const CycleReport none = planner.plan(kT0, &field, kT0, 1, std::nullopt);
+  EXPECT_EQ(none.state, CycleState::kNoState);
+  EXPECT_TRUE(none.is_final);
+  EXPECT_FALSE(none.reason.empty());
+  EXPECT_FALSE(none.trajectory);  // nowhere to hover
+  EXPECT_FALSE(planner.committed());
+  EXPECT_EQ(none.cycle, 1);
+  EXPECT_EQ(none.utime, kT0);
+
+  // max_state_age is 0.5 s: 0.6 s is stale.
+  const int64_t t = kT0 + kSecond;
+  const CycleReport stale = planner.plan(t, &field, t, 2, stateAt(t - 600'000, kStart));
+  EXPECT_EQ(stale.state, CycleState::kNoState);
+  EXPECT_TRUE(stale.is_final);
+  EXPECT_TRUE(contains(stale.reason, "old")) << stale.reason;
+  EXPECT_EQ(stale.cycle, 2);
+  EXPECT_EQ(planner.cycles(), 2);
+
+  // 0.4 s is not.
+  const CycleReport fresh = planner.plan(t, &field, t, 3, stateAt(t - 400'000, kStart));
+  EXPECT_EQ(fresh.state, CycleState::kPlanned) << fresh.reason;
+}
+
+TEST(LocalPlanner, HoversWithoutAMapAndSaysWhy) {
+  LocalPlanner planner{LocalPlannerOptions{}};
+  ASSERT_FALSE(planner.setMissionGoal(goalAt(1, {kMission})));
+  const Eigen::Vector3d here(1, 2, 1.5);
+
+  // No map and nothing committed: a hover at the estimate's position is committed.
+  const CycleReport no_map = planner.plan(kT0, nullptr, 0, -1, stateAt(kT0, here));
+  EXPECT_EQ(no_map.state, CycleState::kNoMap);
+  EXPECT_TRUE(no_map.is_final);
+  EXPECT_FALSE(no_map.reason.empty());
+  ASSERT_TRUE(no_map.trajectory);
+  ASSERT_TRUE(planner.committed());
+  EXPECT_TRUE(sameSegments(*planner.committed(), *no_map.trajectory));
+  const PolynomialTrajectory& hover = *planner.committed();
+  EXPECT_EQ(hover.startUtime(), kT0);
+  EXPECT_DOUBLE_EQ(hover.duration(), planner.options().hover_duration);
+  for (double s : {0.0, 0.5 * hover.duration(), hover.duration(), 5.0}) {
+    EXPECT_NEAR((hover.evaluate(s) - here).norm(), 0, 1e-12) << "t = " << s;
+    EXPECT_NEAR(hover.evaluate(s, 1).norm(), 0, 1e-12) << "t = " << s;
+  }
+  EXPECT_EQ(no_map.start.position, here);
+
+  // Still no map, but something is committed: nothing new.
+  const CycleReport again =
+      planner.plan(kT0 + kSecond, nullptr, 0, -1, stateAt(kT0 + kSecond, here));
+  EXPECT_EQ(again.state, CycleState::kNoMap);
+  EXPECT_FALSE(again.trajectory);
+  EXPECT_TRUE(sameSegments(*planner.committed(), hover));
+
+  // A stale map (max_map_age 2 s; this one is 2.5 s old) is no map either.
+  const DistanceField field = freeSpace();
+  const int64_t t = kT0 + 2 * kSecond;
+  const CycleReport stale = planner.plan(t, &field, t - 2'500'000, 4, stateAt(t, here));
+  EXPECT_EQ(stale.state, CycleState::kNoMap);
+  EXPECT_TRUE(contains(stale.reason, "old")) << stale.reason;
+  EXPECT_EQ(stale.map_revision, 4);
+  EXPECT_FALSE(stale.trajectory);
+  EXPECT_TRUE(sameSegments(*planner.committed(), hover));
+
+  // A stale map with nothing committed also hovers.
+  LocalPlanner fresh_planner{LocalPlannerOptions{}};
+  ASSERT_FALSE(fresh_planner.setMissionGoal(goalAt(1, {kMission})));
+  const CycleReport stale_first = fresh_planner.plan(t, &field, t - 2'500'000, 4, stateAt(t, here));
+  EXPECT_EQ(stale_first.state, CycleState::kNoMap);
+  ASSERT_TRUE(stale_first.trajectory);
+  EXPECT_NEAR((stale_first.trajectory->evaluate(0) - here).norm(), 0, 1e-12);
+}
+
+TEST(LocalPlanner, HoldsWithoutAGoal) {
+  LocalPlanner planner{LocalPlannerOptions{}};
+  const DistanceField field = freeSpace();
+  const CycleReport report = planner.plan(kT0, &field, kT0, 1, stateAt(kT0, kStart));
+  EXPECT_EQ(report.state, CycleState::kHolding);
+  EXPECT_TRUE(report.is_final);
+  EXPECT_FALSE(report.reason.empty());
+  EXPECT_EQ(report.goal_id, -1);
+  EXPECT_FALSE(planner.waitingCycle());
+
+  // After a cancel too.
+  ASSERT_FALSE(planner.setMissionGoal(goalAt(1, {kMission})));
+  planner.cancel();
+  const CycleReport cancelled =
+      planner.plan(kT0 + kSecond, &field, kT0 + kSecond, 2, stateAt(kT0 + kSecond, kStart));
+  EXPECT_EQ(cancelled.state, CycleState::kHolding);
+  EXPECT_FALSE(cancelled.trajectory);
+}
+
+// ---- planning from the reference ----
+
+TEST(LocalPlanner, PlansFromTheReferenceUnlessTheEstimateDiverges) {
+  LocalPlanner planner{LocalPlannerOptions{}};
+  const LocoOptions& loco = planner.options().loco;
+  ASSERT_FALSE(planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField field = freeSpace();
+
+  // The first cycle starts from the estimate.
+  const CycleReport first = planner.plan(kT0, &field, kT0, 1, stateAt(kT0, kStart));
+  ASSERT_EQ(first.state, CycleState::kPlanned) << first.reason;
+  EXPECT_TRUE(first.is_final);
+  EXPECT_EQ(first.cycle, 1);
+  EXPECT_EQ(first.map_revision, 1);
+  EXPECT_EQ(first.goal_id, 1);
+  EXPECT_FALSE(first.goal_from_explorer);
+  EXPECT_EQ(first.goal, kMission);
+  EXPECT_NEAR((first.horizon_goal - Eigen::Vector3d(3, 0, 1.5)).norm(), 0, 1e-12);
+  EXPECT_EQ(first.start.position, kStart);
+  EXPECT_TRUE(first.loco.accepted);
+  ASSERT_TRUE(first.trajectory);
+  ASSERT_TRUE(planner.committed());
+  EXPECT_TRUE(sameSegments(*planner.committed(), *first.trajectory));
+  expectStartsAtReport(first);
+  expectSafe(*first.trajectory, field, loco);
+  // It heads for the goal.
+  const Eigen::Vector3d end = first.trajectory->evaluate(first.trajectory->duration());
+  EXPECT_LT((end - kMission).norm(), (kStart - kMission).norm() - 2.0);
+
+  // 1 s later, an estimate 0.1 m beside the reference (< max_divergence 0.5 m): the cycle starts
+  // from the reference, exactly.
+  const int64_t t1 = kT0 + kSecond;
+  const TrajectoryState reference = planner.committed()->stateAtUtime(t1);
+  ASSERT_GT(reference.velocity.norm(), 0.1);  // it is flying
+  const CycleReport second = planner.plan(
+      t1, &field, t1, 2,
+      stateAt(t1, reference.position + Eigen::Vector3d(0, 0.1, 0), reference.velocity * 0.9));
+  ASSERT_EQ(second.state, CycleState::kPlanned) << second.reason;
+  EXPECT_EQ(second.start.position, reference.position);
+  EXPECT_EQ(second.start.velocity, reference.velocity);
+  EXPECT_EQ(second.start.acceleration, reference.acceleration);
+  expectStartsAtReport(second);
+  expectSafe(*second.trajectory, field, loco);
+
+  // 1 s later, an estimate 1 m off (> max_divergence): the cycle starts from the estimate.
+  const int64_t t2 = t1 + kSecond;
+  const TrajectoryState reference2 = planner.committed()->stateAtUtime(t2);
+  const Eigen::Vector3d off = reference2.position + Eigen::Vector3d(0, 1, 0);
+  const Eigen::Vector3d velocity(0.3, 0.1, 0);
+  const CycleReport third = planner.plan(t2, &field, t2, 3, stateAt(t2, off, velocity));
+  ASSERT_EQ(third.state, CycleState::kPlanned) << third.reason;
+  EXPECT_EQ(third.start.position, off);
+  EXPECT_EQ(third.start.velocity, velocity);
+  EXPECT_EQ(third.start.acceleration, Eigen::Vector3d::Zero());
+  expectStartsAtReport(third);
+  expectSafe(*third.trajectory, field, loco);
+  EXPECT_EQ(planner.cycles(), 3);
+}
+
+// ---- flying ----
+
+TEST(LocalPlanner, FliesToTheGoalInFreeSpace) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField field = freeSpace();
+  std::optional<CycleReport> last;
+  int planned = 0;
+  for (int k = 0; k < 60; ++k) {
+    last = pilot.cycle(field);
+    if (last->state != CycleState::kPlanned) break;
+    ++planned;
+  }
+  ASSERT_TRUE(last);
+  ASSERT_EQ(last->state, CycleState::kGoalReached) << last->reason;
+  EXPECT_GT(planned, 3);
+  EXPECT_TRUE(last->is_final);
+  EXPECT_FALSE(last->trajectory);
+  EXPECT_EQ(last->goal_id, 1);
+  EXPECT_EQ(last->goal, kMission);
+  EXPECT_LE((last->start.position - kMission).norm(), pilot.planner.options().goal_tolerance);
+  // It stays reached, and the vehicle rests near the goal.
+  const CycleReport after = pilot.cycle(field);
+  EXPECT_EQ(after.state, CycleState::kGoalReached);
+  const PolynomialTrajectory& committed = *pilot.planner.committed();
+  EXPECT_LE((committed.evaluate(committed.duration()) - kMission).norm(),
+            pilot.planner.options().goal_tolerance);
+}
+
+TEST(LocalPlanner, TracksWaypointsInOrder) {
+  Pilot pilot;
+  const Eigen::Vector3d w0(4, 0, 1.5);
+  const Eigen::Vector3d w1(4, 4, 1.5);
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(3, {w0, w1})));
+  const DistanceField field = freeSpace();
+  const double tolerance = pilot.planner.options().goal_tolerance;
+
+  int toward_w0 = 0, toward_w1 = 0;
+  bool reached = false;
+  for (int k = 0; k < 60 && !reached; ++k) {
+    const CycleReport report = pilot.cycle(field);
+    SCOPED_TRACE("cycle " + std::to_string(report.cycle));
+    EXPECT_EQ(report.goal_id, 3);
+    if (report.state == CycleState::kGoalReached) {
+      reached = true;
+      EXPECT_EQ(report.goal, w1);
+      break;
+    }
+    ASSERT_EQ(report.state, CycleState::kPlanned) << report.reason;
+    if (report.goal == w0) {
+      EXPECT_EQ(toward_w1, 0) << "back to waypoint 0 after waypoint 1";
+      ++toward_w0;
+      // The horizon goal lies on the way to waypoint 0.
+      const Eigen::Vector3d to_goal = w0 - report.start.position;
+      const Eigen::Vector3d to_horizon = report.horizon_goal - report.start.position;
+      EXPECT_NEAR(to_horizon.normalized().dot(to_goal.normalized()), 1, 1e-9);
+      if (toward_w0 == 1) {
+        EXPECT_NEAR((report.horizon_goal - Eigen::Vector3d(3, 0, 1.5)).norm(), 0, 1e-12);
+      }
+    } else {
+      ASSERT_EQ(report.goal, w1);
+      if (toward_w1 == 0) {
+        // Switched only once waypoint 0 was reached.
+        EXPECT_LE((report.start.position - w0).norm(), tolerance);
+      }
+      ++toward_w1;
+    }
+  }
+  EXPECT_TRUE(reached);
+  EXPECT_GT(toward_w0, 0);
+  EXPECT_GT(toward_w1, 0);
+}
+
+// ---- stuck, the explorer, intermediate goals ----
+
+// Flies toward kMission through `field` until a cycle is stuck (at most 30 cycles).
+std::optional<CycleReport> flyUntilStuck(Pilot& pilot, const DistanceField& field) {
+  for (int k = 0; k < 30; ++k) {
+    const CycleReport report = pilot.cycle(field);
+    if (report.state == CycleState::kStuck) return report;
+    EXPECT_EQ(report.state, CycleState::kPlanned) << report.reason;
+    if (report.state != CycleState::kPlanned) return std::nullopt;
+  }
+  return std::nullopt;
+}
+
+TEST(LocalPlanner, AFullyBlockingWallIsStuckAndCommitsNothing) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField field = wall();
+  // Fly up to the wall until it can go no further.
+  std::optional<PolynomialTrajectory> before;
+  std::optional<CycleReport> stuck;
+  for (int k = 0; k < 30 && !stuck; ++k) {
+    before = pilot.planner.committed();
+    const CycleReport report = pilot.cycle(field);
+    if (report.state == CycleState::kStuck) {
+      stuck = report;
+    } else {
+      ASSERT_EQ(report.state, CycleState::kPlanned) << report.reason;
+    }
+  }
+  ASSERT_TRUE(stuck);
+  EXPECT_TRUE(stuck->is_final);  // no explorer to wait for
+  EXPECT_FALSE(stuck->trajectory);
+  EXPECT_FALSE(stuck->reason.empty());
+  EXPECT_EQ(stuck->goal, kMission);
+  EXPECT_EQ(stuck->goal_id, 1);
+  EXPECT_FALSE(pilot.planner.waitingCycle());
+  ASSERT_TRUE(before);
+  ASSERT_TRUE(pilot.planner.committed());
+  EXPECT_TRUE(sameSegments(*pilot.planner.committed(), *before));
+  // It stopped on the near side of the wall.
+  EXPECT_LT(stuck->start.position.x(), 2.5 - pilot.planner.options().loco.robot_radius);
+  // And stays stuck (nothing committed) on the next cycle.
+  const CycleReport again = pilot.cycle(field);
+  EXPECT_EQ(again.state, CycleState::kStuck);
+  EXPECT_TRUE(sameSegments(*pilot.planner.committed(), *before));
+}
+
+LocalPlannerOptions withExplorer() {
+  LocalPlannerOptions options;
+  options.use_explorer = true;
+  return options;
+}
+
+TEST(LocalPlanner, AStuckCycleWaitsForTheExplorer) {
+  Pilot pilot(withExplorer());
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField field = wall();
+  EXPECT_THROW(pilot.planner.answer(std::nullopt, "nothing", &field), std::logic_error);
+
+  const std::optional<CycleReport> stuck = flyUntilStuck(pilot, field);
+  ASSERT_TRUE(stuck);
+  EXPECT_FALSE(stuck->is_final);
+  EXPECT_FALSE(stuck->trajectory);
+  ASSERT_TRUE(pilot.planner.waitingCycle());
+  EXPECT_EQ(*pilot.planner.waitingCycle(), stuck->cycle);
+  const std::optional<PolynomialTrajectory> before = pilot.planner.committed();
+
+  // The explorer has nothing: the cycle closes holding, and says the explorer found nothing.
+  const CycleReport none = pilot.planner.answer(std::nullopt, "no candidate", &field);
+  EXPECT_EQ(none.cycle, stuck->cycle);
+  EXPECT_EQ(none.state, CycleState::kHolding);
+  EXPECT_TRUE(none.is_final);
+  EXPECT_TRUE(contains(none.reason, "explorer")) << none.reason;
+  EXPECT_TRUE(contains(none.reason, "no candidate")) << none.reason;
+  EXPECT_FALSE(none.trajectory);
+  EXPECT_FALSE(pilot.planner.waitingCycle());
+  EXPECT_FALSE(pilot.planner.intermediateGoal());
+  ASSERT_TRUE(pilot.planner.committed());
+  EXPECT_TRUE(sameSegments(*pilot.planner.committed(), *before));
+  // Nothing is waiting any more.
+  EXPECT_THROW(pilot.planner.answer(std::nullopt, "again", &field), std::logic_error);
+
+  // Stuck again on the next cycle; a new plan() abandons the waiting cycle, and a plan that
+  // succeeds (the wall is gone from the map) leaves nothing waiting.
+  const CycleReport again = pilot.cycle(field);
+  ASSERT_EQ(again.state, CycleState::kStuck) << again.reason;
+  ASSERT_TRUE(pilot.planner.waitingCycle());
+  EXPECT_EQ(*pilot.planner.waitingCycle(), again.cycle);
+  const CycleReport stuck_again = pilot.cycle(field);
+  ASSERT_EQ(stuck_again.state, CycleState::kStuck);
+  EXPECT_EQ(*pilot.planner.waitingCycle(), stuck_again.cycle);  // the new one, not the old
+  const CycleReport planned = pilot.cycle(freeSpace());
+  EXPECT_EQ(planned.state, CycleState::kPlanned) << planned.reason;
+  EXPECT_TRUE(planned.is_final);
+  EXPECT_FALSE(pilot.planner.waitingCycle());
+  EXPECT_THROW(pilot.planner.answer(std::nullopt, "late", &field), std::logic_error);
+}
+
+TEST(LocalPlanner, TracksAnIntermediateGoalThenReturnsToTheMission) {
+  Pilot pilot(withExplorer());
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField field = wall();
+  const std::optional<CycleReport> stuck = flyUntilStuck(pilot, field);
+  ASSERT_TRUE(stuck);
+  ASSERT_TRUE(pilot.planner.waitingCycle());
+
+  // An intermediate goal on the near side of the wall, 2.5 m to the side.
+  const Eigen::Vector3d side = stuck->start.position + Eigen::Vector3d(-0.5, 2.5, 0);
+  const CycleReport answered =
+      pilot.planner.answer(goalAt(77, {side}, /*from_explorer=*/true), "best gain", &field);
+  pilot.check(answered, field);
+  EXPECT_EQ(answered.cycle, stuck->cycle);
+  ASSERT_EQ(answered.state, CycleState::kPlanned) << answered.reason;
+  EXPECT_TRUE(answered.is_final);
+  EXPECT_TRUE(answered.goal_from_explorer);
+  EXPECT_EQ(answered.goal_id, 77);
+  EXPECT_EQ(answered.goal, side);
+  ASSERT_TRUE(answered.trajectory);
+  EXPECT_EQ(answered.trajectory->startUtime(), stuck->utime);
+  EXPECT_EQ(answered.start.position, stuck->start.position);
+  ASSERT_TRUE(pilot.planner.intermediateGoal());
+  EXPECT_EQ(pilot.planner.intermediateGoal()->id, 77);
+  EXPECT_FALSE(pilot.planner.waitingCycle());
+
+  // Later cycles track it until it is reached, then return to the mission goal.
+  const double tolerance = pilot.planner.options().goal_tolerance;
+  int toward_side = 0;
+  std::optional<CycleReport> back;
+  for (int k = 0; k < 30 && !back; ++k) {
+    const CycleReport report = pilot.cycle(field);
+    SCOPED_TRACE("cycle " + std::to_string(report.cycle));
+    if (report.goal_id == 77) {
+      ASSERT_EQ(report.state, CycleState::kPlanned) << report.reason;
+      EXPECT_TRUE(report.goal_from_explorer);
+      EXPECT_EQ(report.goal, side);
+      ++toward_side;
+    } else {
+      back = report;
+    }
+  }
+  ASSERT_TRUE(back);
+  EXPECT_GT(toward_side, 0);
+  EXPECT_EQ(back->goal_id, 1);
+  EXPECT_EQ(back->goal, kMission);
+  EXPECT_FALSE(back->goal_from_explorer);
+  EXPECT_LE((back->start.position - side).norm(), tolerance);
+  EXPECT_FALSE(pilot.planner.intermediateGoal());
+}
+
+TEST(LocalPlanner, AnInfeasibleIntermediateGoalIsDropped) {
+  Pilot pilot(withExplorer());
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField field = wall();
+  const std::optional<CycleReport> stuck = flyUntilStuck(pilot, field);
+  ASSERT_TRUE(stuck);
+  const std::optional<PolynomialTrajectory> before = pilot.planner.committed();
+
+  // Beyond the wall: infeasible as the answer itself; the cycle closes holding, nothing committed.
+  const CycleReport beyond = pilot.planner.answer(
+      goalAt(78, {Eigen::Vector3d(5, 0, 1.5)}, /*from_explorer=*/true), "beyond", &field);
+  EXPECT_EQ(beyond.state, CycleState::kHolding);
+  EXPECT_TRUE(beyond.is_final);
+  EXPECT_TRUE(contains(beyond.reason, "infeasible")) << beyond.reason;
+  EXPECT_FALSE(beyond.trajectory);
+  EXPECT_FALSE(pilot.planner.intermediateGoal());
+  EXPECT_TRUE(sameSegments(*pilot.planner.committed(), *before));
+
+  // An answer outside the flight volume is refused.
+  const CycleReport again = pilot.cycle(field);
+  ASSERT_EQ(again.state, CycleState::kStuck) << again.reason;
+  const CycleReport refused = pilot.planner.answer(
+      goalAt(79, {Eigen::Vector3d(0, 0, -3)}, /*from_explorer=*/true), "under", &field);
+  EXPECT_EQ(refused.state, CycleState::kHolding);
+  EXPECT_TRUE(contains(refused.reason, "outside the flight volume")) << refused.reason;
+  EXPECT_FALSE(pilot.planner.intermediateGoal());
+
+  // A feasible one straight to the side (+y)...
+  const CycleReport stuck_again = pilot.cycle(field);
+  ASSERT_EQ(stuck_again.state, CycleState::kStuck) << stuck_again.reason;
+  const Eigen::Vector3d start = stuck_again.start.position;
+  const Eigen::Vector3d side = start + Eigen::Vector3d(0, 2.5, 0);
+  const CycleReport answered =
+      pilot.planner.answer(goalAt(80, {side}, /*from_explorer=*/true), "side", &field);
+  pilot.check(answered, field);
+  ASSERT_EQ(answered.state, CycleState::kPlanned) << answered.reason;
+  ASSERT_TRUE(pilot.planner.intermediateGoal());
+
+  // ... then a map revision 1 ms later shows a second wall across the way to it (0.75 m to the
+  // side), while the wall toward the mission goal turns out not to be there: the intermediate goal
+  // is dropped and the same cycle plans toward the mission goal.
+  const DistanceField side_wall =
+      boxesField({boxFromCorners({-50, start.y() + 0.75, -50}, {50, start.y() + 1.05, 150})});
+  const int64_t t = stuck_again.utime + 1000;
+  const TrajectoryState reference = pilot.planner.committed()->stateAtUtime(t);
+  const CycleReport dropped =
+      pilot.planner.plan(t, &side_wall, t, 100, stateAt(t, reference.position, reference.velocity));
+  pilot.check(dropped, side_wall);
+  EXPECT_EQ(dropped.state, CycleState::kPlanned) << dropped.reason;
+  EXPECT_EQ(dropped.goal_id, 1);
+  EXPECT_EQ(dropped.goal, kMission);
+  EXPECT_FALSE(dropped.goal_from_explorer);
+  EXPECT_FALSE(pilot.planner.intermediateGoal());
+}
+
+// ---- determinism ----
+
+TEST(LocalPlanner, SameInputsGiveIdenticalTrajectories) {
+  // A cylinder just off the straight line, so the optimizer has work to do.
+  const DistanceField field = cylinderField({4.5, 0.15}, 0.5);
+  LocalPlannerOptions options;
+  options.seed = 12345;
+  Pilot a(options), b(options);
+  ASSERT_FALSE(a.planner.setMissionGoal(goalAt(1, {kMission})));
+  ASSERT_FALSE(b.planner.setMissionGoal(goalAt(1, {kMission})));
+  int compared = 0;
+  for (int k = 0; k < 8; ++k) {
+    const CycleReport ra = a.cycle(field);
+    const CycleReport rb = b.cycle(field);
+    SCOPED_TRACE("cycle " + std::to_string(ra.cycle));
+    ASSERT_EQ(ra.state, rb.state);
+    EXPECT_EQ(ra.reason, rb.reason);
+    EXPECT_EQ(ra.horizon_goal, rb.horizon_goal);
+    EXPECT_EQ(ra.loco.iterations, rb.loco.iterations);
+    EXPECT_EQ(ra.loco.restarts, rb.loco.restarts);
+    ASSERT_EQ(ra.trajectory.has_value(), rb.trajectory.has_value());
+    if (ra.trajectory) {
+      EXPECT_TRUE(sameSegments(*ra.trajectory, *rb.trajectory));
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 3);
+}
+
+// ---- options ----
+
+TEST(LocalPlanner, RefusesBadOptions) {
+  const auto build = [](auto change) {
+    LocalPlannerOptions options;
+    change(options);
+    return LocalPlanner(options);
+  };
+  EXPECT_NO_THROW(build([](LocalPlannerOptions&) {}));
+  EXPECT_THROW(build([](LocalPlannerOptions& o) { o.goal_tolerance = 0; }), std::invalid_argument);
+  EXPECT_THROW(build([](LocalPlannerOptions& o) { o.max_divergence = -1; }), std::invalid_argument);
+  EXPECT_THROW(build([](LocalPlannerOptions& o) { o.max_state_age = std::nan(""); }),
+               std::invalid_argument);
+  EXPECT_THROW(build([](LocalPlannerOptions& o) { o.flight_volume_max.z() = -1; }),
+               std::invalid_argument);
+  EXPECT_THROW(build([](LocalPlannerOptions& o) { o.goal_finder.method = "bogus"; }),
+               std::invalid_argument);
+  EXPECT_THROW(build([](LocalPlannerOptions& o) { o.loco.v_max = 0; }), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace thicket::local_planner

@@ -1,0 +1,578 @@
+#include "trials.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <thread>
+
+#include <lcm/lcm-cpp.hpp>
+#include <thicket/goal_t.hpp>
+#include <thicket/module_timing_t.hpp>
+
+#include "local_planner_node.h"
+#include "mapper_node.h"
+#include "sim_node.h"
+#include "thicket/common/loop.h"
+#include "thicket/common/node.h"
+#include "thicket/common/statistics.h"
+#include "thicket/common/time.h"
+#include "thicket/sim/ground_truth.h"
+
+namespace thicket::bench {
+namespace {
+
+// There is no vio_bridge node yet: the mapper and the planner read the simulator's odometry,
+// which is noiseless by default.
+constexpr const char* kStateChannel = "VIO_ODOMETRY";
+
+// The goal-selection strategies (BENCHMARK.md, E2). A method is the nodes it adds to a trial's
+// graph; when it adds any, the planner asks them for intermediate goals when stuck. Adding a
+// strategy is adding a row here.
+using MethodNodes = std::vector<std::unique_ptr<Node>>;
+struct Method {
+  const char* name;
+  MethodNodes (*host)(lcm::LCM& lcm, const sim::World& world);
+};
+const Method kMethods[] = {
+    {"none", [](lcm::LCM&, const sim::World&) { return MethodNodes{}; }},
+};
+
+// The goal-finding variants of the optimization-only experiment (BENCHMARK.md, E1).
+struct GoalFinding {
+  const char* name;
+  const char* finder_method;  // GoalFinderOptions::method
+  bool soft_goal;
+};
+const GoalFinding kGoalFindings[] = {
+    {"line", "line", false},
+    {"gradient", "gradient", false},
+    {"soft", "gradient", true},
+};
+
+template <class Row, size_t N>
+const Row& findRow(const Row (&table)[N], const std::string& name) {
+  for (const Row& row : table) {
+    if (name == row.name) return row;
+  }
+  throw std::invalid_argument("no row named '" + name + "'");  // parseRunOptions checked it
+}
+
+template <class Row, size_t N>
+std::string rowNames(const Row (&table)[N]) {
+  std::string names;
+  for (const Row& row : table) names += (names.empty() ? "" : ", ") + std::string(row.name);
+  return names;
+}
+
+std::string usage() {
+  return "usage: thicket-bench run --density D --trials N --out DIR [options]\n"
+         "  Runs N trials of one configuration, trial i on the world of seed B+i, with the real\n"
+         "  nodes on memq:// in this process. Writes DIR/trials.csv (one row per trial) and\n"
+         "  DIR/paths/<trial>.csv (the executed path at 0.01 s: t, x, y, z, yaw).\n"
+         "  --scenario S      a scenario name in the worlds dir or a .yaml path (default paper)\n"
+         "  --density D       cylinders per m^2 of the obstacle region\n"
+         "  --method M        goal-selection strategy: " +
+         rowNames(kMethods) +
+         " (default none)\n"
+         "  --goal-finding G  " +
+         rowNames(kGoalFindings) +
+         " (soft: gradient + soft goal; default soft)\n"
+         "  --trials N        number of trials, >= 1\n"
+         "  --seed-base B     the seed of trial 0 (default 0)\n"
+         "  --replans R       replan limit of a trial (default 60)\n"
+         "  --jobs J          trials run on J threads (default 1)\n"
+         "  --worlds-dir DIR  where scenario names are looked up (default: the source tree's\n"
+         "                    config/worlds)\n"
+         "  --out DIR         the output folder\n"
+         "       thicket-bench [--benchmark_filter=REGEX ...]: the module micro-benchmarks\n";
+}
+
+// ---- flags ----
+
+using FlagError = std::optional<std::string>;
+
+FlagError setNumber(double& value, const std::string& flag, const std::string& text) {
+  try {
+    size_t used = 0;
+    const double parsed = std::stod(text, &used);
+    if (used == text.size() && std::isfinite(parsed) && parsed >= 0) {
+      value = parsed;
+      return {};
+    }
+  } catch (const std::exception&) {
+  }
+  return flag + " '" + text + "' is not a non-negative number";
+}
+
+FlagError setText(std::string& value, const std::string& text) {
+  value = text;
+  return {};
+}
+
+template <class Int>
+FlagError setInteger(Int& value, const std::string& flag, const std::string& text, Int min) {
+  try {
+    size_t used = 0;
+    const long long parsed = std::stoll(text, &used);
+    if (used == text.size() && parsed >= min && parsed <= std::numeric_limits<Int>::max()) {
+      value = static_cast<Int>(parsed);
+      return {};
+    }
+  } catch (const std::exception&) {
+  }
+  return flag + " must be an integer >= " + std::to_string(min) + ", not '" + text + "'";
+}
+
+template <class Row, size_t N>
+FlagError setChoice(std::string& value, const std::string& what, const Row (&table)[N],
+                    const std::string& text) {
+  for (const Row& row : table) {
+    if (text == row.name) {
+      value = text;
+      return {};
+    }
+  }
+  return "unknown " + what + " '" + text + "' (known: " + rowNames(table) + ")";
+}
+
+using Setter = std::function<FlagError(RunOptions&, const std::string&)>;
+
+const std::map<std::string, Setter>& setters() {
+  static const std::map<std::string, Setter> table = {
+      {"--scenario", [](RunOptions& o, const std::string& v) { return setText(o.scenario, v); }},
+      {"--density",
+       [](RunOptions& o, const std::string& v) { return setNumber(o.density, "--density", v); }},
+      {"--method", [](RunOptions& o,
+                      const std::string& v) { return setChoice(o.method, "method", kMethods, v); }},
+      {"--goal-finding",
+       [](RunOptions& o, const std::string& v) {
+         return setChoice(o.goal_finding, "goal-finding variant", kGoalFindings, v);
+       }},
+      {"--trials",
+       [](RunOptions& o, const std::string& v) { return setInteger(o.trials, "--trials", v, 1); }},
+      {"--seed-base",
+       [](RunOptions& o, const std::string& v) {
+         return setInteger<int64_t>(o.seed_base, "--seed-base", v, 0);
+       }},
+      {"--replans", [](RunOptions& o,
+                       const std::string& v) { return setInteger(o.replans, "--replans", v, 1); }},
+      {"--jobs",
+       [](RunOptions& o, const std::string& v) { return setInteger(o.jobs, "--jobs", v, 1); }},
+      {"--worlds-dir",
+       [](RunOptions& o, const std::string& v) { return setText(o.worlds_dir, v); }},
+      {"--out", [](RunOptions& o, const std::string& v) { return setText(o.out, v); }},
+  };
+  return table;
+}
+
+}  // namespace
+
+Expected<RunOptions> parseRunOptions(const std::vector<std::string>& args) {
+  RunOptions options;
+  options.worlds_dir = std::string(THICKET_SOURCE_DIR) + "/config/worlds";
+  std::set<std::string> given;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--help" || args[i] == "-h") {
+      options.help = true;
+      return options;
+    }
+    if (args[i].rfind("--", 0) != 0) return unexpected("unexpected argument '" + args[i] + "'");
+    // "--flag value" or "--flag=value".
+    const size_t equals = args[i].find('=');
+    const std::string flag = args[i].substr(0, equals);
+    const auto setter = setters().find(flag);
+    if (setter == setters().end()) return unexpected("unknown option " + flag);
+    std::string value;
+    if (equals != std::string::npos) {
+      value = args[i].substr(equals + 1);
+    } else if (i + 1 < args.size()) {
+      value = args[++i];
+    }
+    if (value.empty()) return unexpected(flag + " needs a value");
+    if (FlagError error = setter->second(options, value)) return unexpected(*error);
+    given.insert(flag);
+  }
+  for (const char* required : {"--density", "--trials", "--out"}) {
+    if (!given.count(required)) return unexpected(std::string("run needs ") + required);
+  }
+  return options;
+}
+
+namespace {
+
+// ---- one trial ----
+
+// Wall-clock time for the nodes' stage durations (measured, never used to decide) [ms].
+double wallClockMs() {
+  return std::chrono::duration<double, std::milli>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// The benchmark's own node in a trial's graph: the operator who gives the mission goal, and the
+// recorder of every module's stage durations.
+class BenchNode : public Node {
+ public:
+  explicit BenchNode(lcm::LCM& lcm) : Node("bench", lcm) {
+    // Each module publishes one message per frame or cycle, and the composite drains every
+    // cycle; the capacity is only a margin.
+    subscribe<module_timing_t>(
+        "MODULE_TIMING",
+        [this](const module_timing_t& msg, const MessageInfo&) {
+          for (size_t i = 0; i < msg.stages.size(); ++i) {
+            durations_ms_[msg.module + "_" + msg.stages[i]].push_back(msg.durations_ms[i]);
+          }
+        },
+        1000);
+  }
+
+  void sendMissionGoal(const Eigen::Vector3d& goal) {
+    goal_t msg{};
+    msg.utime = 0;
+    msg.goal_id = 1;
+    msg.source = goal_t::SOURCE_OPERATOR;
+    msg.cycle = -1;
+    msg.status = goal_t::STATUS_OK;
+    msg.yaw_policy = goal_t::YAW_ALONG_VELOCITY;
+    msg.waypoints = {{goal.x(), goal.y(), goal.z()}};
+    msg.yaws = {0.0};
+    msg.num_waypoints = 1;
+    publish("MISSION_GOAL", msg);
+  }
+
+  std::map<std::string, StageTiming> timings() const {
+    std::map<std::string, StageTiming> timings;
+    for (const auto& [stage, ms] : durations_ms_) {
+      timings[stage] = {median(ms), quantile(ms, 0.95), *std::max_element(ms.begin(), ms.end())};
+    }
+    return timings;
+  }
+
+ private:
+  std::map<std::string, std::vector<double>> durations_ms_;
+};
+
+sim::SimOptions simOptions(const RunOptions& options, const sim::World& world) {
+  sim::SimOptions sim;
+  sim.scenario = world.scenario;
+  sim.density = world.density;
+  sim.seed = static_cast<int64_t>(world.seed);
+  sim.worlds_dir = options.worlds_dir;
+  sim.lockstep = true;
+  sim.vehicle.replan_limit = options.replans;
+  return sim;
+}
+
+mapper::MapperNodeOptions mapperOptions() {
+  mapper::MapperNodeOptions mapper;
+  mapper.state_channel = kStateChannel;
+  return mapper;
+}
+
+local_planner::LocalPlannerNodeOptions plannerOptions(const RunOptions& options,
+                                                      const sim::World& world, bool use_explorer) {
+  local_planner::LocalPlannerNodeOptions node;
+  node.state_channel = kStateChannel;
+  // Every ESDF revision triggers a cycle; no timers run in the composite.
+  node.replan_rate = 0;
+  node.setpoint_rate = 0;
+  const GoalFinding& variant = findRow(kGoalFindings, options.goal_finding);
+  node.planner.goal_finder.method = variant.finder_method;
+  node.planner.soft_goal = variant.soft_goal;
+  node.planner.seed = static_cast<int64_t>(world.seed);
+  node.planner.flight_volume_min = world.bounds_min;
+  node.planner.flight_volume_max = world.bounds_max;
+  node.planner.use_explorer = use_explorer;
+  return node;
+}
+
+}  // namespace
+
+TrialResult runTrial(const RunOptions& options, const sim::World& world, int trial) {
+  TrialResult result;
+  result.trial = trial;
+  result.seed = world.seed;
+  result.straight_line_m = (world.goal - world.start).norm();
+  result.solvable = sim::checkSolvable(sim::GroundTruth(world)).solvable;
+
+  const auto started = std::chrono::steady_clock::now();
+  lcm::LCM lcm("memq://");
+  if (!lcm.good()) throw std::runtime_error("cannot open an LCM on memq://");
+  Loop loop(lcm);
+  BenchNode bench(lcm);
+  sim::SimNode sim(lcm, simOptions(options, world), world);
+  mapper::MapperNode mapper(lcm, mapperOptions(), static_cast<int64_t>(world.seed) + 1,
+                            wallClockMs);
+  const MethodNodes method_nodes = findRow(kMethods, options.method).host(lcm, world);
+  local_planner::LocalPlannerNode planner(
+      lcm, plannerOptions(options, world, !method_nodes.empty()), wallClockMs);
+
+  // The planner holds the goal before the first frame arrives.
+  bench.sendMissionGoal(world.goal);
+  loop.drain();
+  sim.start();
+  // In lockstep every frame is answered within the same drain; an idle graph with the mission
+  // still open means the planner never closed the frame.
+  while (!sim.finished()) {
+    if (loop.drain() == 0) sim.abort("no final planner status for the frame");
+  }
+  result.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+
+  const sim::Vehicle& vehicle = sim.vehicle();
+  result.min_clearance_m = vehicle.minClearance();
+  result.collision = vehicle.minClearance() < world.robot_radius;
+  result.success = vehicle.outcome() == sim::Outcome::kGoalReached && !result.collision;
+  result.feasible = vehicle.feasible();
+  result.num_replans = vehicle.cycle();
+  result.distance_to_goal_m = vehicle.distanceToGoal();
+  result.path_length_m = vehicle.pathLength();
+  result.path = vehicle.path();
+  result.path_time_s = toSeconds(result.path.back().utime - result.path.front().utime);
+  result.end_reason = sim.endReason();
+  result.timings = bench.timings();
+  return result;
+}
+
+namespace {
+
+// ---- output ----
+
+std::string format(const char* spec, double value) {
+  char text[64];
+  std::snprintf(text, sizeof(text), spec, value);
+  return text;
+}
+
+std::string fixed(double value) {
+  return format("%.4f", value);
+}
+
+std::string flag(bool value) {
+  return value ? "1" : "0";
+}
+
+// Quoted when it holds a separator or a quote (RFC 4180).
+std::string csvField(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+std::string joinRow(const std::vector<std::string>& cells) {
+  std::string line;
+  for (size_t i = 0; i < cells.size(); ++i) line += (i ? "," : "") + cells[i];
+  return line + "\n";
+}
+
+std::string pathFile(const RunOptions& options, int trial) {
+  return options.out + "/paths/" + std::to_string(trial) + ".csv";
+}
+
+void writeFile(const std::string& path, const std::string& text) {
+  std::ofstream file(path, std::ios::binary);
+  file << text;
+  file.close();
+  if (!file) throw std::runtime_error("cannot write " + path);
+}
+
+void writePath(const std::string& file, const std::vector<sim::PathSample>& path) {
+  std::string text = "t,x,y,z,yaw\n";
+  char line[160];
+  for (const sim::PathSample& s : path) {
+    std::snprintf(line, sizeof(line), "%.3f,%.6f,%.6f,%.6f,%.6f\n",
+                  toSeconds(s.utime - path.front().utime), s.position.x(), s.position.y(),
+                  s.position.z(), s.yaw);
+    text += line;
+  }
+  writeFile(file, text);
+}
+
+// trials.csv: the columns of BENCHMARK.md, then the median, p95 and max of every module stage
+// seen in any trial (empty where a trial has none).
+void writeTrials(const RunOptions& options, const std::string& scenario,
+                 const std::vector<TrialResult>& results) {
+  std::set<std::string> stages;
+  for (const TrialResult& r : results) {
+    for (const auto& [stage, timing] : r.timings) stages.insert(stage);
+  }
+  std::vector<std::string> header = {"trial",           "seed",
+                                     "scenario",        "density",
+                                     "method",          "goal_finding",
+                                     "success",         "collision",
+                                     "min_clearance_m", "feasible",
+                                     "num_replans",     "distance_to_goal_m",
+                                     "path_length_m",   "straight_line_m",
+                                     "path_time_s",     "solvable",
+                                     "wall_time_s",     "end_reason"};
+  for (const std::string& stage : stages) {
+    for (const char* summary : {"median", "p95", "max"}) {
+      header.push_back(stage + "_ms_" + summary);
+    }
+  }
+  std::string text = joinRow(header);
+  for (const TrialResult& r : results) {
+    std::vector<std::string> cells = {std::to_string(r.trial),
+                                      std::to_string(r.seed),
+                                      csvField(scenario),
+                                      format("%g", options.density),
+                                      options.method,
+                                      options.goal_finding,
+                                      flag(r.success),
+                                      flag(r.collision),
+                                      fixed(r.min_clearance_m),
+                                      flag(r.feasible),
+                                      std::to_string(r.num_replans),
+                                      fixed(r.distance_to_goal_m),
+                                      fixed(r.path_length_m),
+                                      fixed(r.straight_line_m),
+                                      fixed(r.path_time_s),
+                                      flag(r.solvable),
+                                      fixed(r.wall_time_s),
+                                      csvField(r.end_reason)};
+    for (const std::string& stage : stages) {
+      const auto timing = r.timings.find(stage);
+      const bool seen = timing != r.timings.end();
+      for (double StageTiming::*summary :
+           {&StageTiming::median_ms, &StageTiming::p95_ms, &StageTiming::max_ms}) {
+        cells.push_back(seen ? format("%.3f", timing->second.*summary) : "");
+      }
+    }
+    text += joinRow(cells);
+  }
+  writeFile(options.out + "/trials.csv", text);
+}
+
+// ---- the run ----
+
+// Trial `trial` on its world, its path written; a trial that cannot run is reported in its row.
+TrialResult attemptTrial(const RunOptions& options, const sim::ScenarioSpec& spec, int trial) {
+  const uint64_t seed = static_cast<uint64_t>(options.seed_base) + static_cast<uint64_t>(trial);
+  try {
+    auto world = sim::generateWorld(spec, options.density, seed);
+    if (!world) throw std::runtime_error(world.error());
+    TrialResult result = runTrial(options, *world, trial);
+    writePath(pathFile(options, trial), result.path);
+    result.path = {};  // written; a long run should not hold every path
+    return result;
+  } catch (const std::exception& e) {
+    TrialResult failed;
+    failed.trial = trial;
+    failed.seed = seed;
+    failed.end_reason = std::string("error: ") + e.what();
+    return failed;
+  }
+}
+
+bool failedToRun(const TrialResult& result) {
+  return result.end_reason.rfind("error: ", 0) == 0;
+}
+
+// "trial 3/20 seed 3: goal reached, 17.2 m, 23 replans, 4.1 s"; the error alone for a trial that
+// could not run.
+std::string progressLine(const TrialResult& r, int trials) {
+  std::string line = "trial " + std::to_string(r.trial) + "/" + std::to_string(trials) + " seed " +
+                     std::to_string(r.seed) + ": " + r.end_reason;
+  if (!failedToRun(r)) {
+    char numbers[128];
+    std::snprintf(numbers, sizeof(numbers), ", %.1f m, %d replans, %.1f s", r.path_length_m,
+                  r.num_replans, r.wall_time_s);
+    line += numbers;
+  }
+  return line + "\n";
+}
+
+// Every trial, on options.jobs threads, sorted by trial. Each trial has its own LCM and nodes;
+// the threads share only the slots of the results (one each) and stderr.
+std::vector<TrialResult> runAll(const RunOptions& options, const sim::ScenarioSpec& spec) {
+  std::vector<TrialResult> results(static_cast<size_t>(options.trials));
+  std::atomic<int> next{0};
+  std::mutex progress;
+  auto worker = [&] {
+    for (int trial = next++; trial < options.trials; trial = next++) {
+      results[static_cast<size_t>(trial)] = attemptTrial(options, spec, trial);
+      const std::lock_guard lock(progress);
+      std::fputs(progressLine(results[static_cast<size_t>(trial)], options.trials).c_str(), stderr);
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int j = 0; j < std::min(options.jobs, options.trials); ++j) threads.emplace_back(worker);
+  for (std::thread& thread : threads) thread.join();
+  return results;
+}
+
+void printSummary(const RunOptions& options, const std::string& scenario,
+                  const std::vector<TrialResult>& results) {
+  int success = 0, collisions = 0, solvable = 0, success_on_solvable = 0;
+  std::vector<double> successful_lengths;
+  for (const TrialResult& r : results) {
+    success += r.success;
+    collisions += r.collision;
+    solvable += r.solvable;
+    success_on_solvable += r.success && r.solvable;
+    if (r.success) successful_lengths.push_back(r.path_length_m);
+  }
+  const int n = static_cast<int>(results.size());
+  std::printf("%s, density %g, method %s, goal finding %s: %d trials, seeds %lld..%lld\n",
+              scenario.c_str(), options.density, options.method.c_str(),
+              options.goal_finding.c_str(), n, static_cast<long long>(options.seed_base),
+              static_cast<long long>(options.seed_base + n - 1));
+  std::printf("success %d/%d, collisions %d, solvable %d/%d (success on solvable %d/%d)\n", success,
+              n, collisions, solvable, n, success_on_solvable, solvable);
+  if (successful_lengths.empty()) {
+    std::printf("median path length of successful trials: none succeeded\n");
+  } else {
+    std::printf("median path length of successful trials: %.2f m\n", median(successful_lengths));
+  }
+  std::printf("wrote %s/trials.csv and %s/paths/\n", options.out.c_str(), options.out.c_str());
+}
+
+int failUsage(const std::string& message) {
+  std::fprintf(stderr, "thicket-bench run: %s\n(thicket-bench run --help for usage)\n",
+               message.c_str());
+  return 2;
+}
+
+}  // namespace
+
+int runCommand(const std::vector<std::string>& args) {
+  auto options = parseRunOptions(args);
+  if (!options) return failUsage(options.error());
+  if (options->help) {
+    std::fputs(usage().c_str(), stdout);
+    return 0;
+  }
+  auto spec = sim::loadScenario(options->scenario, options->worlds_dir);
+  if (!spec) return failUsage(spec.error());
+
+  try {
+    std::filesystem::create_directories(options->out + "/paths");
+    const std::vector<TrialResult> results = runAll(*options, *spec);
+    writeTrials(*options, spec->name, results);
+    printSummary(*options, spec->name, results);
+    const auto failed = std::count_if(results.begin(), results.end(), failedToRun);
+    if (failed > 0) {
+      std::fprintf(stderr, "thicket-bench run: %lld of %d trials could not run\n",
+                   static_cast<long long>(failed), options->trials);
+      return 1;
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "thicket-bench run: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace thicket::bench

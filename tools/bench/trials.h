@@ -1,0 +1,71 @@
+// thicket-bench run: trials of one configuration, each with the real nodes (sim, mapper, local
+// planner and the method's nodes) hosted on one memq:// LCM in this process, several trials on
+// parallel threads (BENCHMARK.md). Trial i flies the world of seed base + i.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "thicket/common/expected.h"
+#include "thicket/sim/vehicle.h"
+#include "thicket/sim/world.h"
+
+namespace thicket::bench {
+
+/// What `thicket-bench run` was asked for.
+struct RunOptions {
+  std::string scenario = "paper";
+  double density = 0;
+  std::string method = "none";        ///< the goal-selection strategy (BENCHMARK.md E2)
+  std::string goal_finding = "soft";  ///< "line", "gradient" or "soft" (gradient + soft goal)
+  int trials = 0;
+  int64_t seed_base = 0;
+  int replans = 60;  ///< the sim's replan limit
+  int jobs = 1;      ///< trials run on this many threads
+  std::string worlds_dir;
+  std::string out;  ///< the output folder
+  bool help = false;
+};
+
+/// Parses the flags after "run"; the error is a message for the user (exit status 2).
+Expected<RunOptions> parseRunOptions(const std::vector<std::string>& args);
+
+/// Median, 95th percentile and maximum of one module stage's durations in a trial [ms].
+struct StageTiming {
+  double median_ms = 0;
+  double p95_ms = 0;
+  double max_ms = 0;
+};
+
+/// One row of trials.csv, and the executed path.
+struct TrialResult {
+  int trial = 0;
+  uint64_t seed = 0;
+  bool success = false;
+  bool collision = false;
+  double min_clearance_m = 0;
+  bool feasible = false;
+  int num_replans = 0;
+  double distance_to_goal_m = 0;
+  double path_length_m = 0;
+  double straight_line_m = 0;
+  double path_time_s = 0;
+  bool solvable = false;
+  double wall_time_s = 0;  ///< building the graph and flying the mission
+  std::string end_reason;  ///< the sim's, or "error: ..." when the trial could not run
+  /// By "<module>_<stage>" as published on MODULE_TIMING.
+  std::map<std::string, StageTiming> timings;
+  std::vector<sim::PathSample> path;
+};
+
+/// Flies `world` as trial `trial` of `options`. Throws what the nodes throw on bad options.
+TrialResult runTrial(const RunOptions& options, const sim::World& world, int trial);
+
+/// `thicket-bench run ARGS`: runs the trials and writes DIR/trials.csv and DIR/paths/<trial>.csv.
+/// Returns the exit status: 0 when every trial ran, 1 when one could not run or the output could
+/// not be written, 2 for bad flags.
+int runCommand(const std::vector<std::string>& args);
+
+}  // namespace thicket::bench
