@@ -13,10 +13,16 @@ EsdfSample sampleEsdf(const EsdfLayer& esdf, const Eigen::Vector3d& p) {
   const VoxelIndex base = lower.cast<int>();
   const Eigen::Vector3d t = scaled - lower;
   double values[2][2][2];
+  // Usually all 8 voxels share one block: look it up once (this is the planner's inner loop).
+  const BlockIndex block_index = blockOfVoxel(base);
+  const bool one_block = blockOfVoxel(base + VoxelIndex(1, 1, 1)) == block_index;
+  const EsdfLayer::BlockType* block = one_block ? esdf.block(block_index) : nullptr;
+  if (one_block && block == nullptr) return {};
   for (int dz = 0; dz < 2; ++dz) {
     for (int dy = 0; dy < 2; ++dy) {
       for (int dx = 0; dx < 2; ++dx) {
-        const EsdfVoxel* voxel = esdf.voxel(base + VoxelIndex(dx, dy, dz));
+        const VoxelIndex v = base + VoxelIndex(dx, dy, dz);
+        const EsdfVoxel* voxel = one_block ? &block->voxels[linearIndexInBlock(v)] : esdf.voxel(v);
         if (voxel == nullptr || !voxel->observed) return {};
         values[dz][dy][dx] = voxel->distance;
       }

@@ -100,6 +100,14 @@ TEST(EsdfQuery, AnyUnobservedOrMissingCornerIsUnknown) {
   const EsdfSample sample = sampleEsdf(layer, p);
   EXPECT_FALSE(sample.known);
   EXPECT_EQ(sample.distance, 0);
+  // Across a block boundary (voxels 15 and 16 on x), on either side.
+  const Eigen::Vector3d q(16 * 0.2, 0.25, 0.25);
+  EXPECT_TRUE(sampleEsdf(layer, q).known);
+  layer.voxel({16, 1, 1})->observed = false;
+  EXPECT_FALSE(sampleEsdf(layer, q).known);
+  layer.voxel({16, 1, 1})->observed = true;
+  layer.voxel({15, 0, 0})->observed = false;
+  EXPECT_FALSE(sampleEsdf(layer, q).known);
   EXPECT_FALSE(sampleEsdf(layer, {100, 0, 0}).known);  // no block there
   EXPECT_FALSE(sampleEsdf(layer, {NAN, 0, 0}).known);
   EXPECT_FALSE(sampleEsdf(layer, {1e300, 0, 0}).known);

@@ -299,7 +299,21 @@ local_planner::LocalPlannerNodeOptions plannerOptions(const RunOptions& options,
 
 }  // namespace
 
-TrialResult runTrial(const RunOptions& options, const sim::World& world, int trial) {
+sim::World trialWorld(const RunOptions& options, int trial) {
+  const std::string worlds_dir = options.worlds_dir.empty()
+                                     ? std::string(THICKET_SOURCE_DIR) + "/config/worlds"
+                                     : options.worlds_dir;
+  auto spec = sim::loadScenario(options.scenario, worlds_dir);
+  if (!spec) throw std::runtime_error(spec.error());
+  auto world =
+      sim::generateWorld(*spec, options.density,
+                         static_cast<uint64_t>(options.seed_base) + static_cast<uint64_t>(trial));
+  if (!world) throw std::runtime_error(world.error());
+  return *world;
+}
+
+TrialResult runTrial(const RunOptions& options, const sim::World& world, int trial,
+                     const TrialObserver& observer) {
   TrialResult result;
   result.trial = trial;
   result.seed = world.seed;
@@ -317,6 +331,7 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   const MethodNodes method_nodes = findRow(kMethods, options.method).host(lcm, world);
   local_planner::LocalPlannerNode planner(
       lcm, plannerOptions(options, world, !method_nodes.empty()), wallClockMs);
+  const std::unique_ptr<Node> observer_node = observer ? observer(lcm) : nullptr;
 
   // The planner holds the goal before the first frame arrives.
   bench.sendMissionGoal(world.goal);
@@ -458,12 +473,10 @@ void writeTrials(const RunOptions& options, const std::string& scenario,
 // ---- the run ----
 
 // Trial `trial` on its world, its path written; a trial that cannot run is reported in its row.
-TrialResult attemptTrial(const RunOptions& options, const sim::ScenarioSpec& spec, int trial) {
+TrialResult attemptTrial(const RunOptions& options, int trial) {
   const uint64_t seed = static_cast<uint64_t>(options.seed_base) + static_cast<uint64_t>(trial);
   try {
-    auto world = sim::generateWorld(spec, options.density, seed);
-    if (!world) throw std::runtime_error(world.error());
-    TrialResult result = runTrial(options, *world, trial);
+    TrialResult result = runTrial(options, trialWorld(options, trial), trial);
     writePath(pathFile(options, trial), result.path);
     result.path = {};  // written; a long run should not hold every path
     return result;
@@ -496,13 +509,13 @@ std::string progressLine(const TrialResult& r, int trials) {
 
 // Every trial, on options.jobs threads, sorted by trial. Each trial has its own LCM and nodes;
 // the threads share only the slots of the results (one each) and stderr.
-std::vector<TrialResult> runAll(const RunOptions& options, const sim::ScenarioSpec& spec) {
+std::vector<TrialResult> runAll(const RunOptions& options) {
   std::vector<TrialResult> results(static_cast<size_t>(options.trials));
   std::atomic<int> next{0};
   std::mutex progress;
   auto worker = [&] {
     for (int trial = next++; trial < options.trials; trial = next++) {
-      results[static_cast<size_t>(trial)] = attemptTrial(options, spec, trial);
+      results[static_cast<size_t>(trial)] = attemptTrial(options, trial);
       const std::lock_guard lock(progress);
       std::fputs(progressLine(results[static_cast<size_t>(trial)], options.trials).c_str(), stderr);
     }
@@ -559,7 +572,7 @@ int runCommand(const std::vector<std::string>& args) {
 
   try {
     std::filesystem::create_directories(options->out + "/paths");
-    const std::vector<TrialResult> results = runAll(*options, *spec);
+    const std::vector<TrialResult> results = runAll(*options);
     writeTrials(*options, spec->name, results);
     printSummary(*options, spec->name, results);
     const auto failed = std::count_if(results.begin(), results.end(), failedToRun);

@@ -4,11 +4,14 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "thicket/common/expected.h"
+#include "thicket/common/node.h"
 #include "thicket/sim/vehicle.h"
 #include "thicket/sim/world.h"
 
@@ -60,8 +63,18 @@ struct TrialResult {
   std::vector<sim::PathSample> path;
 };
 
-/// Flies `world` as trial `trial` of `options`. Throws what the nodes throw on bad options.
-TrialResult runTrial(const RunOptions& options, const sim::World& world, int trial);
+/// Makes a node that watches a trial's graph (benchmarks record planning problems this way); it
+/// lives as long as the trial.
+using TrialObserver = std::function<std::unique_ptr<Node>(lcm::LCM&)>;
+
+/// Flies `world` as trial `trial` of `options`, with `observer`'s node on the graph if given.
+/// Throws what the nodes throw on bad options.
+TrialResult runTrial(const RunOptions& options, const sim::World& world, int trial,
+                     const TrialObserver& observer = {});
+
+/// The world of trial `trial` (seed base + trial) of `options`; throws std::runtime_error when the
+/// scenario cannot be loaded or the world not generated.
+sim::World trialWorld(const RunOptions& options, int trial);
 
 /// `thicket-bench run ARGS`: runs the trials and writes DIR/trials.csv and DIR/paths/<trial>.csv.
 /// Returns the exit status: 0 when every trial ran, 1 when one could not run or the output could

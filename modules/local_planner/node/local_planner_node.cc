@@ -93,7 +93,7 @@ void LocalPlannerNode::onMap(const map_update_t& msg) {
   if (result.outcome == Outcome::kNeedSnapshot) {
     publish("MAP_REQUEST", mirror_.request(msg.utime, name()));
   } else if (result.outcome == Outcome::kRefused) {
-    onBadMessage("MAP_ESDF", result.reason);
+    reportBadMessage("MAP_ESDF", result.reason);
   } else if (result.outcome == Outcome::kApplied && options_.replan_rate == 0) {
     pending_ = mirror_.utime();
     runPending();
@@ -107,16 +107,17 @@ void LocalPlannerNode::onState(const odometry_t& msg) {
   state.velocity =
       Eigen::Vector3d(msg.linear_velocity[0], msg.linear_velocity[1], msg.linear_velocity[2]);
   if (msg.quality == odometry_t::QUALITY_LOST) {
-    onBadMessage(options_.state_channel, "the estimator reports it is lost (" + msg.reason + ")");
+    reportBadMessage(options_.state_channel,
+                     "the estimator reports it is lost (" + msg.reason + ")");
     return;
   }
   if (!state.position.allFinite() || !state.velocity.allFinite()) {
-    onBadMessage(options_.state_channel, "position or velocity not finite");
+    reportBadMessage(options_.state_channel, "position or velocity not finite");
     return;
   }
   if (state_ && msg.utime <= state_->utime) {
-    onBadMessage(options_.state_channel,
-                 "utime " + std::to_string(msg.utime) + " not after the previous estimate's");
+    reportBadMessage(options_.state_channel,
+                     "utime " + std::to_string(msg.utime) + " not after the previous estimate's");
     return;
   }
   state_ = state;
@@ -146,18 +147,10 @@ void LocalPlannerNode::runCycle(int64_t utime) {
   if (mirror_.layer()) field = esdfField(*mirror_.layer());
   const CycleReport report =
       planner_.plan(utime, field ? &*field : nullptr, mirror_.utime(), mirror_.revision(), state_);
-  publishReport(report);
-  module_timing_t timing;
-  timing.utime = utime;
-  timing.module = "local_planner";
-  timing.sequence = report.cycle;
-  timing.stages = {"trajectory_optimization", "cycle"};
-  timing.durations_ms = {report.solve_ms, now_ms_() - t0};
-  timing.num_stages = 2;
-  publish("MODULE_TIMING", timing);
+  publishReport(report, now_ms_() - t0);
 }
 
-void LocalPlannerNode::publishReport(const CycleReport& report) {
+void LocalPlannerNode::publishReport(const CycleReport& report, double total_ms) {
   if (report.trajectory) {
     publish("PLANNER_TRAJECTORY", report.trajectory->toLcm(report.cycle, report.goal_id));
   }
@@ -187,6 +180,15 @@ void LocalPlannerNode::publishReport(const CycleReport& report) {
   status.restarts = report.loco.restarts;
   status.solve_time_ms = report.solve_ms;
   publish("PLANNER_STATUS", status);
+
+  module_timing_t timing;
+  timing.utime = report.utime;
+  timing.module = "local_planner";
+  timing.sequence = report.cycle;
+  timing.stages = {"trajectory_optimization", "cycle"};
+  timing.durations_ms = {report.solve_ms, total_ms};
+  timing.num_stages = 2;
+  publish("MODULE_TIMING", timing);
 }
 
 void LocalPlannerNode::publishRejection(const goal_t& msg, const std::string& reason) {
@@ -234,9 +236,11 @@ void LocalPlannerNode::onExplorerGoal(const goal_t& msg) {
       reason = "malformed explorer goal: " + parsed.error();
     }
   }
+  const double t0 = now_ms_();
   std::optional<DistanceField> field;
   if (mirror_.layer()) field = esdfField(*mirror_.layer());
-  publishReport(planner_.answer(goal, reason, field ? &*field : nullptr));
+  const CycleReport report = planner_.answer(goal, reason, field ? &*field : nullptr);
+  publishReport(report, now_ms_() - t0);
 }
 
 bool LocalPlannerNode::publishSetpoint(int64_t utime) {
@@ -245,7 +249,7 @@ bool LocalPlannerNode::publishSetpoint(int64_t utime) {
   const TrajectoryState s = trajectory->stateAtUtime(utime);
   setpoint_t msg{};
   msg.utime = utime;
-  msg.cycle = planner_.cycles();
+  msg.cycle = planner_.committedCycle();
   copy(s.position, msg.position);
   copy(s.velocity, msg.velocity);
   copy(s.acceleration, msg.acceleration);

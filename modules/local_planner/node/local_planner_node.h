@@ -62,7 +62,8 @@ class LocalPlannerNode : public Node {
   void onExplorerGoal(const goal_t& msg);
   void runPending();
   void runCycle(int64_t utime);
-  void publishReport(const CycleReport& report);
+  // The cycle's trajectory (if any), status and timing (total_ms: the whole cycle, measured).
+  void publishReport(const CycleReport& report, double total_ms);
   void publishRejection(const goal_t& msg, const std::string& reason);
 
   LocalPlannerNodeOptions options_;

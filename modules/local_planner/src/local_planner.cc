@@ -128,15 +128,18 @@ bool LocalPlanner::advanceWaypoints(const Goal& goal, size_t& waypoint,
   return waypoint == goal.waypoints.size();
 }
 
+void LocalPlanner::commit(const PolynomialTrajectory& trajectory, CycleReport& report) {
+  committed_ = trajectory;
+  committed_cycle_ = report.cycle;
+  report.trajectory = trajectory;
+}
+
 void LocalPlanner::hold(CycleReport& report, CycleState state, const std::string& reason,
-                        const std::optional<VehicleState>& estimate) {
+                        const std::optional<Eigen::Vector3d>& position) {
   report.state = state;
   report.reason = reason;
-  if (!committed_ && estimate) {
-    committed_ =
-        PolynomialTrajectory::hover(report.utime, estimate->position, options_.hover_duration);
-    report.trajectory = committed_;
-    report.start.position = estimate->position;
+  if (!committed_ && position) {
+    commit(PolynomialTrajectory::hover(report.utime, *position, options_.hover_duration), report);
   }
 }
 
@@ -185,8 +188,7 @@ bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceF
     report.reason = "the optimizer returned an invalid trajectory: " + trajectory.error();
     return false;
   }
-  committed_ = *trajectory;
-  report.trajectory = committed_;
+  commit(*trajectory, report);
   report.state = CycleState::kPlanned;
   report.reason.clear();
   return true;
@@ -202,11 +204,12 @@ CycleReport LocalPlanner::plan(int64_t utime, const DistanceField* field, int64_
   waiting_.reset();
 
   if (!estimate) {
-    hold(report, CycleState::kNoState, "no state estimate yet", estimate);
+    hold(report, CycleState::kNoState, "no state estimate yet", std::nullopt);
     return report;
   }
   if (const double age = toSeconds(utime - estimate->utime); age > options_.max_state_age) {
-    hold(report, CycleState::kNoState, format("the state estimate is %.2f s old", age), estimate);
+    hold(report, CycleState::kNoState, format("the state estimate is %.2f s old", age),
+         estimate->position);
     return report;
   }
   // The reference: the committed trajectory now, unless the vehicle is elsewhere.
@@ -218,15 +221,15 @@ CycleReport LocalPlanner::plan(int64_t utime, const DistanceField* field, int64_
     report.start.velocity = estimate->velocity;
   }
   if (field == nullptr) {
-    hold(report, CycleState::kNoMap, "no map yet", estimate);
+    hold(report, CycleState::kNoMap, "no map yet", report.start.position);
     return report;
   }
   if (const double age = toSeconds(utime - map_utime); age > options_.max_map_age) {
-    hold(report, CycleState::kNoMap, format("the map is %.2f s old", age), estimate);
+    hold(report, CycleState::kNoMap, format("the map is %.2f s old", age), report.start.position);
     return report;
   }
   if (!mission_) {
-    hold(report, CycleState::kHolding, "no goal", estimate);
+    hold(report, CycleState::kHolding, "no goal", report.start.position);
     return report;
   }
 
@@ -251,8 +254,7 @@ CycleReport LocalPlanner::plan(int64_t utime, const DistanceField* field, int64_
     return report;
   }
   if (planToward(*mission_, mission_waypoint_, *field, report)) return report;
-  report.state = CycleState::kStuck;
-  report.reason = dropped + report.reason;
+  hold(report, CycleState::kStuck, dropped + report.reason, report.start.position);
   if (options_.use_explorer) {
     report.is_final = false;
     waiting_ = report;
@@ -273,10 +275,12 @@ CycleReport LocalPlanner::answer(const std::optional<Goal>& goal, const std::str
     report.reason = "stuck (" + stuck + "); " + why;
     return report;
   };
+  if (!mission_) return give_up("the mission was cancelled");
   if (!goal) return give_up("the explorer has no intermediate goal: " + reason);
   if (auto refused = validate(*goal)) return give_up("intermediate goal refused: " + *refused);
   if (field == nullptr) return give_up("no map");
   intermediate_ = *goal;
+  intermediate_->from_explorer = true;
   intermediate_waypoint_ = 0;
   if (advanceWaypoints(*intermediate_, intermediate_waypoint_, report.start.position)) {
     intermediate_.reset();

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <ostream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -18,6 +19,12 @@
 #include "analytic_fields.h"
 
 namespace thicket::local_planner {
+
+// Readable CycleStates in gtest messages.
+void PrintTo(CycleState state, std::ostream* os) {
+  *os << cycleStateName(state);
+}
+
 namespace {
 
 using testing::boxesField;
@@ -477,6 +484,25 @@ TEST(LocalPlanner, AFullyBlockingWallIsStuckAndCommitsNothing) {
   EXPECT_TRUE(sameSegments(*pilot.planner.committed(), *before));
 }
 
+TEST(LocalPlanner, AThickWallIsStuckTooNotPlannedInPlace) {
+  // A wall 17.5 m thick: the horizon goal is deep inside it, and the nearest way out of it (the
+  // ESDF gradient) leads back toward the vehicle. Hovering in front of the wall is no progress
+  // toward the goal: the planner must say it is stuck (so that an explorer is asked), not
+  // "planned" with a trajectory that goes nowhere.
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {Eigen::Vector3d(30, 0, 1.5)})));
+  const DistanceField field = boxesField({boxFromCorners({2.5, -50, -50}, {20, 50, 150})});
+  std::optional<CycleReport> stuck;
+  for (int k = 0; k < 30 && !stuck; ++k) {
+    const CycleReport report = pilot.cycle(field);
+    if (report.state == CycleState::kStuck) stuck = report;
+  }
+  ASSERT_TRUE(stuck) << "never stuck in front of the wall; the vehicle is at x = "
+                     << pilot.estimate().position.x();
+  EXPECT_FALSE(stuck->trajectory);
+  EXPECT_LT(stuck->start.position.x(), 2.5 - pilot.planner.options().loco.robot_radius);
+}
+
 LocalPlannerOptions withExplorer() {
   LocalPlannerOptions options;
   options.use_explorer = true;
@@ -606,6 +632,18 @@ TEST(LocalPlanner, AnInfeasibleIntermediateGoalIsDropped) {
   EXPECT_TRUE(contains(refused.reason, "outside the flight volume")) << refused.reason;
   EXPECT_FALSE(pilot.planner.intermediateGoal());
 
+  // An answer without a map cannot be planned.
+  const CycleReport stuck_without_map = pilot.cycle(field);
+  ASSERT_EQ(stuck_without_map.state, CycleState::kStuck) << stuck_without_map.reason;
+  const CycleReport no_map = pilot.planner.answer(
+      goalAt(81, {stuck_without_map.start.position + Eigen::Vector3d(0, 2.5, 0)}, true), "side",
+      nullptr);
+  EXPECT_EQ(no_map.state, CycleState::kHolding);
+  EXPECT_TRUE(no_map.is_final);
+  EXPECT_TRUE(contains(no_map.reason, "no map")) << no_map.reason;
+  EXPECT_FALSE(no_map.trajectory);
+  EXPECT_FALSE(pilot.planner.intermediateGoal());
+
   // A feasible one straight to the side (+y)...
   const CycleReport stuck_again = pilot.cycle(field);
   ASSERT_EQ(stuck_again.state, CycleState::kStuck) << stuck_again.reason;
@@ -632,6 +670,34 @@ TEST(LocalPlanner, AnInfeasibleIntermediateGoalIsDropped) {
   EXPECT_EQ(dropped.goal, kMission);
   EXPECT_FALSE(dropped.goal_from_explorer);
   EXPECT_FALSE(pilot.planner.intermediateGoal());
+}
+
+TEST(LocalPlanner, ACancelWhileWaitingClosesTheCycleWithoutFlyingToTheAnswer) {
+  Pilot pilot(withExplorer());
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField field = wall();
+  const std::optional<CycleReport> stuck = flyUntilStuck(pilot, field);
+  ASSERT_TRUE(stuck);
+  ASSERT_TRUE(pilot.planner.waitingCycle());
+  const std::optional<PolynomialTrajectory> before = pilot.planner.committed();
+
+  // The operator cancels while the explorer is still thinking; its answer arrives afterwards.
+  // The cycle must still close (the simulator waits for its final status), but the vehicle must
+  // not set off toward a goal of a mission that no longer exists.
+  pilot.planner.cancel();
+  EXPECT_FALSE(pilot.planner.missionGoal());
+  const Eigen::Vector3d side = stuck->start.position + Eigen::Vector3d(0, 2.5, 0);
+  CycleReport answered;
+  if (pilot.planner.waitingCycle()) {
+    answered = pilot.planner.answer(goalAt(90, {side}, /*from_explorer=*/true), "late", &field);
+    EXPECT_EQ(answered.cycle, stuck->cycle);
+    EXPECT_TRUE(answered.is_final);
+    EXPECT_EQ(answered.state, CycleState::kHolding) << answered.reason;
+    EXPECT_FALSE(answered.trajectory);
+  }
+  EXPECT_FALSE(pilot.planner.intermediateGoal());
+  ASSERT_TRUE(pilot.planner.committed());
+  EXPECT_TRUE(sameSegments(*pilot.planner.committed(), *before));
 }
 
 // ---- determinism ----

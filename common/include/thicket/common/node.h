@@ -75,11 +75,14 @@ class Node {
   /// channel and then every 10th, 100th, ... so a flood of bad input cannot flood the log.
   virtual void onBadMessage(const std::string& channel, const std::string& reason);
 
+  /// Refuses a message that decoded but is unusable (NaN values, time going backwards...):
+  /// counts it, sets lastError() and calls onBadMessage().
+  void reportBadMessage(const std::string& channel, const std::string& reason);
+
  private:
   struct Subscription;
   void addSubscription(const std::string& channel, int queue_capacity,
                        std::function<void(const void*, size_t, const MessageInfo&)> dispatch);
-  void reportBadMessage(const std::string& channel, const std::string& reason);
   bool publishFailed(const std::string& channel, const std::string& reason);
 
   std::string name_;

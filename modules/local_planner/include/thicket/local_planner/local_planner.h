@@ -9,8 +9,8 @@
 // Commitment. Each cycle plans from the *reference*: the committed trajectory at the cycle's
 // time (the estimate only when there is no committed trajectory or the two diverge). A cycle that
 // finds no acceptable trajectory commits nothing, so the vehicle keeps flying the previous
-// trajectory, which ends at rest in space that was free (it hovers there). Without a map, a
-// fresh one or a state estimate the planner holds: it commits a hover trajectory if nothing is
+// trajectory, which ends at rest in space that was free (it hovers there). Without a plan, a map,
+// a fresh one or a state estimate the planner holds: it commits a hover trajectory if nothing is
 // committed yet, and says why.
 //
 // No LCM and no clock inside: time comes from the caller (message utimes); wall-clock time is
@@ -129,6 +129,8 @@ class LocalPlanner {
 
   /// The committed trajectory, if any.
   const std::optional<PolynomialTrajectory>& committed() const { return committed_; }
+  /// The cycle that committed it, or -1.
+  int64_t committedCycle() const { return committed_cycle_; }
   const std::optional<Goal>& missionGoal() const { return mission_; }
   const std::optional<Goal>& intermediateGoal() const { return intermediate_; }
   int64_t cycles() const { return cycle_; }
@@ -137,8 +139,10 @@ class LocalPlanner {
   // Plans toward the current waypoint of the tracked goal; fills the report, commits on success.
   bool planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
                   CycleReport& report);
+  // Reports a cycle that commits no plan; hovers at `position` when nothing is committed yet.
   void hold(CycleReport& report, CycleState state, const std::string& reason,
-            const std::optional<VehicleState>& estimate);
+            const std::optional<Eigen::Vector3d>& position);
+  void commit(const PolynomialTrajectory& trajectory, CycleReport& report);
   // Advances past reached waypoints; true when the whole goal is reached.
   bool advanceWaypoints(const Goal& goal, size_t& waypoint, const Eigen::Vector3d& position) const;
 
@@ -151,6 +155,7 @@ class LocalPlanner {
   std::optional<Goal> intermediate_;
   size_t intermediate_waypoint_ = 0;
   std::optional<PolynomialTrajectory> committed_;
+  int64_t committed_cycle_ = -1;
   int64_t cycle_ = 0;
   // The stuck cycle waiting for the explorer: its report so far.
   std::optional<CycleReport> waiting_;

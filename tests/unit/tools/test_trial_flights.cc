@@ -1,0 +1,65 @@
+// The real graph (sim, mapper, local planner) flying the paper's forest in-process, as
+// `thicket-bench run` flies it: the planner reaches the goal on an easy world, never comes closer
+// to an obstacle than the robot radius (ground truth) on dense ones, keeps the limits, and flies
+// the same path twice.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "trials.h"
+
+namespace thicket::bench {
+namespace {
+
+RunOptions paper(double density, int replans) {
+  RunOptions options;
+  options.density = density;
+  options.replans = replans;
+  return options;
+}
+
+TrialResult fly(const RunOptions& options, int trial) {
+  return runTrial(options, trialWorld(options, trial), trial);
+}
+
+TEST(TrialFlights, ReachTheGoalThroughASparseForest) {
+  const RunOptions options = paper(0.1, 60);
+  const TrialResult result = fly(options, 1);
+  EXPECT_TRUE(result.success) << result.end_reason;
+  EXPECT_FALSE(result.collision);
+  EXPECT_TRUE(result.feasible);
+  EXPECT_LT(result.distance_to_goal_m, 0.2);
+  EXPECT_LT(result.path_length_m, 1.3 * result.straight_line_m);
+}
+
+TEST(TrialFlights, NeverComeCloserThanTheRobotRadiusInADenseForest) {
+  for (const char* goal_finding : {"line", "soft"}) {
+    RunOptions options = paper(0.3, 30);
+    options.goal_finding = goal_finding;
+    for (int trial = 0; trial < 3; ++trial) {
+      const TrialResult result = fly(options, trial);
+      SCOPED_TRACE(std::string(goal_finding) + ", trial " + std::to_string(trial) + ": " +
+                   result.end_reason);
+      EXPECT_FALSE(result.collision) << "clearance " << result.min_clearance_m;
+      EXPECT_GE(result.min_clearance_m, 0.5);
+      EXPECT_TRUE(result.feasible);
+      // Every cycle closed with a final status: the simulator never gave up on the planner.
+      EXPECT_EQ(result.end_reason.rfind("aborted", 0), std::string::npos);
+    }
+  }
+}
+
+TEST(TrialFlights, FlyTheSamePathTwice) {
+  const RunOptions options = paper(0.2, 20);
+  const TrialResult a = fly(options, 4);
+  const TrialResult b = fly(options, 4);
+  ASSERT_EQ(a.path.size(), b.path.size());
+  for (size_t i = 0; i < a.path.size(); ++i) {
+    ASSERT_EQ(a.path[i].utime, b.path[i].utime);
+    ASSERT_EQ(a.path[i].position, b.path[i].position) << "sample " << i;
+  }
+  EXPECT_EQ(a.num_replans, b.num_replans);
+}
+
+}  // namespace
+}  // namespace thicket::bench
