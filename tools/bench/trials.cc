@@ -20,6 +20,7 @@
 #include <thicket/goal_t.hpp>
 #include <thicket/module_timing_t.hpp>
 
+#include "explorer_node.h"
 #include "local_planner_node.h"
 #include "mapper_node.h"
 #include "sim_node.h"
@@ -44,8 +45,29 @@ struct Method {
   const char* name;
   MethodNodes (*host)(lcm::LCM& lcm, const sim::World& world);
 };
+double wallClockMs() {
+  return std::chrono::duration<double, std::milli>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// An explorer node running `strategy`, seeded by the world and confined to its volume.
+MethodNodes explorerNodes(lcm::LCM& lcm, const sim::World& world, const char* strategy) {
+  explorer::ExplorerNodeOptions options;
+  options.explorer.strategy = strategy;
+  options.explorer.seed = static_cast<int64_t>(world.seed);
+  options.explorer.flight_volume_min = world.bounds_min;
+  options.explorer.flight_volume_max = world.bounds_max;
+  MethodNodes nodes;
+  nodes.push_back(std::make_unique<explorer::ExplorerNode>(lcm, options, wallClockMs));
+  return nodes;
+}
+
 const Method kMethods[] = {
     {"none", [](lcm::LCM&, const sim::World&) { return MethodNodes{}; }},
+    {"random", [](lcm::LCM& lcm, const sim::World& w) { return explorerNodes(lcm, w, "random"); }},
+    {"local_exploration",
+     [](lcm::LCM& lcm, const sim::World& w) { return explorerNodes(lcm, w, "local_exploration"); }},
 };
 
 // The goal-finding variants of the optimization-only experiment (BENCHMARK.md, E1).
@@ -214,11 +236,6 @@ namespace {
 // ---- one trial ----
 
 // Wall-clock time for the nodes' stage durations (measured, never used to decide) [ms].
-double wallClockMs() {
-  return std::chrono::duration<double, std::milli>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 // The benchmark's own node in a trial's graph: the operator who gives the mission goal, and the
 // recorder of every module's stage durations.

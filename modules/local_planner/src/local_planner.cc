@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "thicket/common/random.h"
 #include "thicket/common/time.h"
 
 namespace thicket::local_planner {
@@ -48,14 +49,6 @@ void LocalPlannerOptions::declare(Params& p) {
 }
 
 namespace {
-
-uint64_t mixSeed(int64_t seed, int64_t cycle) {
-  // splitmix64 of the pair, so neighbouring cycles get unrelated restarts.
-  uint64_t z = static_cast<uint64_t>(seed) * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(cycle);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
 
 std::string format(const char* pattern, double a, double b = 0, double c = 0) {
   char text[160];

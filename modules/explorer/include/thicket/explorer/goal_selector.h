@@ -1,0 +1,87 @@
+// Intermediate goal selection (DESIGN §1, step 3): when the local planner is stuck, a strategy
+// proposes where to go next. Strategies are selected by name and seeded from the configuration and
+// the planner cycle they answer, so the same request gives the same proposal in any process layout.
+//
+//   none               proposes nothing (the optimization-only baseline)
+//   random             a uniformly random point in the sphere of radius r around the start
+//   local_exploration  the paper's method: with probability P_g the global goal; otherwise N points
+//                      sampled in observed free space within r of the start, each facing away from
+//                      the start, scored R = w_e l + w_g (d_g - ||g - x||) / d_g with l the unknown
+//                      fraction of its view (every s-th frustum voxel) and d_g = ||g - x_s|| + r
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "thicket/common/params.h"
+#include "thicket/common/voxel_layer.h"
+#include "thicket/explorer/gain.h"
+
+namespace thicket::explorer {
+
+/// What the stuck planner asks.
+struct ExplorationRequest {
+  int64_t utime = 0;                                ///< the stuck cycle's time [µs]
+  int64_t cycle = 0;                                ///< the stuck cycle
+  Eigen::Vector3d start = Eigen::Vector3d::Zero();  ///< where the vehicle plans from [m]
+  Eigen::Vector3d goal = Eigen::Vector3d::Zero();   ///< the goal it is stuck on [m]
+};
+
+/// The maps a strategy reads; either may be null before the first snapshot.
+struct MapView {
+  const TsdfLayer* tsdf = nullptr;
+  const EsdfLayer* esdf = nullptr;
+};
+
+/// A strategy's answer.
+struct Proposal {
+  bool found = false;
+  std::vector<Eigen::Vector3d> waypoints;  ///< tracked in order
+  std::vector<double> yaws;                ///< one per waypoint [rad]; empty: along velocity
+  double score = 0;                        ///< the strategy's score (debugging)
+  std::string reason;                      ///< why nothing was found, or how it was chosen
+  bool map_missing = false;                ///< nothing found because the strategy has no map
+  int64_t gain_evaluations = 0;
+};
+
+struct ExplorerOptions {
+  /// One of: none, random, local_exploration.
+  std::string strategy = "local_exploration";
+  int64_t seed = 0;     ///< draws are seeded from this and the cycle
+  double radius = 5.0;  ///< r: candidates lie within this of the start [m]
+  int candidates = 15;  ///< N
+  int subsample = 20;   ///< s: the gain checks every s-th frustum voxel
+  double w_e = 1.0;     ///< weight of the exploration gain
+  double w_g = 0.5;     ///< weight of the progress toward the goal
+  double p_goal = 0.5;  ///< P_g: probability of proposing the global goal
+  /// Candidates must be this far from obstacles in the ESDF, so the planner can end there [m].
+  double min_clearance = 0.6;
+  int max_draws = 1000;  ///< random draws per request before giving up on finding N candidates
+  Eigen::Vector3d flight_volume_min = Eigen::Vector3d(-1000, -1000, 0.5);
+  Eigen::Vector3d flight_volume_max = Eigen::Vector3d(1000, 1000, 100);
+  GainOptions gain;
+
+  void declare(Params& p);
+};
+
+/// A goal-selection strategy.
+class GoalSelector {
+ public:
+  virtual ~GoalSelector() = default;
+  virtual const char* name() const = 0;
+  virtual Proposal select(const ExplorationRequest& request, const MapView& maps) = 0;
+};
+
+/// The strategy options.strategy names. Throws std::invalid_argument on an unknown name or bad
+/// options.
+std::unique_ptr<GoalSelector> makeGoalSelector(const ExplorerOptions& options);
+
+/// The strategies makeGoalSelector knows.
+const std::vector<std::string>& strategyNames();
+
+}  // namespace thicket::explorer

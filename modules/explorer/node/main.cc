@@ -1,0 +1,36 @@
+// thicket-explorer: the intermediate goal selection process.
+//
+//   thicket-explorer [--lcm-url URL] [--config explorer.yaml]
+//   thicket-explorer params        (every option of --config, with its default)
+#include <cstdio>
+#include <string>
+
+#include "explorer_node.h"
+#include "thicket/common/loop.h"
+#include "thicket/common/node_main.h"
+
+int main(int argc, char** argv) {
+  const std::string program = "thicket-explorer";
+  thicket::NodeArgs args;
+  thicket::explorer::ExplorerNodeOptions options;
+  if (auto exit_code = thicket::startNode(
+          argc, argv, program,
+          "usage: thicket-explorer [--config explorer.yaml]\n       thicket-explorer params\n",
+          args, options)) {
+    return *exit_code;
+  }
+  // Wall-clock time only measures durations; no decision reads it.
+  const auto now_ms = [] { return thicket::steadyClockMicros() * 1e-3; };
+  lcm::LCM lcm(args.lcm_url);
+  if (!lcm.good()) return thicket::failNode(program, "cannot open LCM at " + args.lcm_url);
+  thicket::Loop::installSignalHandlers();
+  try {
+    thicket::Loop loop(lcm);
+    thicket::explorer::ExplorerNode node(lcm, options, now_ms);
+    loop.run();
+    std::printf("%s: %s\n", program.c_str(), node.summary().c_str());
+  } catch (const std::exception& e) {
+    return thicket::failNode(program, e.what());
+  }
+  return 0;
+}

@@ -1,0 +1,157 @@
+// The goal-selection strategies on hand-built maps: what a correct implementation must propose.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "thicket/common/esdf_query.h"
+#include "thicket/explorer/goal_selector.h"
+
+namespace thicket::explorer {
+namespace {
+
+constexpr double kVoxel = 0.2;
+
+// A world seen only inside a box around the start: observed free there (TSDF distance 1, ESDF
+// distance to the box's walls... and to a wall at x = wall_x when given), unknown elsewhere.
+struct HandMap {
+  TsdfLayer tsdf{kVoxel};
+  EsdfLayer esdf{kVoxel};
+};
+
+HandMap observedBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  HandMap map;
+  const VoxelIndex a = map.tsdf.voxelIndex(lo), b = map.tsdf.voxelIndex(hi);
+  for (int x = a.x(); x <= b.x(); ++x) {
+    for (int y = a.y(); y <= b.y(); ++y) {
+      for (int z = a.z(); z <= b.z(); ++z) {
+        const Eigen::Vector3d c = map.tsdf.voxelCenter({x, y, z});
+        map.tsdf.allocateVoxel({x, y, z}) = TsdfVoxel{0.8f, 1.0f};
+        // Distance to the boundary of the observed box: beyond it the planner sees obstacles.
+        const double d = std::min((c - lo).minCoeff(), (hi - c).minCoeff());
+        EsdfVoxel& e = map.esdf.allocateVoxel({x, y, z});
+        e.distance = static_cast<float>(d);
+        e.observed = true;
+      }
+    }
+  }
+  return map;
+}
+
+ExplorationRequest request(int64_t cycle) {
+  ExplorationRequest r;
+  r.cycle = cycle;
+  r.start = Eigen::Vector3d(0, 0, 1.5);
+  r.goal = Eigen::Vector3d(20, 0, 1.5);
+  return r;
+}
+
+ExplorerOptions optionsFor(const std::string& strategy) {
+  ExplorerOptions o;
+  o.strategy = strategy;
+  o.seed = 3;
+  return o;
+}
+
+TEST(GoalSelector, NoneProposesNothing) {
+  const auto selector = makeGoalSelector(optionsFor("none"));
+  const Proposal p = selector->select(request(1), {});
+  EXPECT_FALSE(p.found);
+  EXPECT_FALSE(p.reason.empty());
+}
+
+TEST(GoalSelector, RandomDrawsInsideTheSphereAndTheVolume) {
+  ExplorerOptions o = optionsFor("random");
+  o.flight_volume_min = Eigen::Vector3d(-10, -10, 1);
+  o.flight_volume_max = Eigen::Vector3d(10, 10, 3);
+  const auto selector = makeGoalSelector(o);
+  for (int cycle = 0; cycle < 50; ++cycle) {
+    const Proposal p = selector->select(request(cycle), {});
+    ASSERT_TRUE(p.found);
+    ASSERT_EQ(p.waypoints.size(), 1u);
+    EXPECT_LE((p.waypoints[0] - request(cycle).start).norm(), o.radius);
+    EXPECT_GE(p.waypoints[0].z(), 1);
+    EXPECT_LE(p.waypoints[0].z(), 3);
+  }
+  // Seeded by the cycle: the same request gives the same point, another cycle another one.
+  EXPECT_EQ(selector->select(request(7), {}).waypoints[0],
+            selector->select(request(7), {}).waypoints[0]);
+  EXPECT_NE(selector->select(request(7), {}).waypoints[0],
+            selector->select(request(8), {}).waypoints[0]);
+}
+
+TEST(GoalSelector, LocalExplorationProposesTheGlobalGoalWithProbabilityPg) {
+  ExplorerOptions o = optionsFor("local_exploration");
+  const HandMap map = observedBox({-3, -3, 0.5}, {3, 3, 2.5});
+  o.p_goal = 1;
+  EXPECT_EQ(makeGoalSelector(o)->select(request(1), {&map.tsdf, &map.esdf}).waypoints[0],
+            request(1).goal);
+  o.p_goal = 0.5;
+  const auto selector = makeGoalSelector(o);
+  int global = 0;
+  for (int cycle = 0; cycle < 200; ++cycle) {
+    const Proposal p = selector->select(request(cycle), {&map.tsdf, &map.esdf});
+    ASSERT_TRUE(p.found);
+    global += p.waypoints[0] == request(cycle).goal;
+  }
+  EXPECT_NEAR(global / 200.0, 0.5, 0.1);
+}
+
+// Observed free space around the start, unknown beyond: the chosen point must be observed, clear,
+// within r, face away from the start, and see unknown space; it scores best among candidates.
+TEST(GoalSelector, LocalExplorationPicksAnObservedFreePointThatSeesUnknownSpace) {
+  ExplorerOptions o = optionsFor("local_exploration");
+  o.p_goal = 0;
+  const HandMap map = observedBox({-4, -4, 0.4}, {4, 4, 2.6});
+  const auto selector = makeGoalSelector(o);
+  const ExplorationGain gain(o.gain, kVoxel);
+  for (int cycle = 0; cycle < 10; ++cycle) {
+    const ExplorationRequest r = request(cycle);
+    const Proposal p = selector->select(r, {&map.tsdf, &map.esdf});
+    ASSERT_TRUE(p.found) << p.reason;
+    ASSERT_EQ(p.waypoints.size(), 1u);
+    ASSERT_EQ(p.yaws.size(), 1u);
+    const Eigen::Vector3d x = p.waypoints[0];
+    EXPECT_LE((x - r.start).norm(), o.radius);
+    const EsdfSample s = sampleEsdf(map.esdf, x);
+    ASSERT_TRUE(s.known);
+    EXPECT_GE(s.distance, o.min_clearance);
+    const Eigen::Vector3d away = x - r.start;
+    EXPECT_NEAR(p.yaws[0], std::atan2(away.y(), away.x()), 1e-12);
+    const Gain g =
+        gain.unknownFraction(map.tsdf, ExplorationGain::cameraAt(x, p.yaws[0]), o.subsample);
+    EXPECT_GT(g.unknown_fraction, 0.2);
+    // The score is the paper's R for that point.
+    const double d_g = (r.goal - r.start).norm() + o.radius;
+    EXPECT_NEAR(p.score, o.w_e * g.unknown_fraction + o.w_g * (d_g - (r.goal - x).norm()) / d_g,
+                1e-12);
+    EXPECT_EQ(p.gain_evaluations, o.candidates);
+  }
+}
+
+TEST(GoalSelector, LocalExplorationSaysWhenThereIsNoMapOrNoCandidate) {
+  ExplorerOptions o = optionsFor("local_exploration");
+  o.p_goal = 0;
+  const auto selector = makeGoalSelector(o);
+  Proposal p = selector->select(request(1), {});
+  EXPECT_FALSE(p.found);
+  EXPECT_TRUE(p.map_missing);
+  // Observed space far from the start only: nothing within r.
+  const HandMap far = observedBox({30, 30, 0.4}, {34, 34, 2.6});
+  p = selector->select(request(1), {&far.tsdf, &far.esdf});
+  EXPECT_FALSE(p.found);
+  EXPECT_FALSE(p.map_missing);
+  EXPECT_NE(p.reason.find("no observed free point"), std::string::npos) << p.reason;
+}
+
+TEST(GoalSelector, RefusesUnknownStrategiesAndBadOptions) {
+  EXPECT_THROW(makeGoalSelector(optionsFor("teleport")), std::invalid_argument);
+  ExplorerOptions o = optionsFor("random");
+  o.p_goal = 1.5;
+  EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
+  o = optionsFor("random");
+  o.radius = NAN;
+  EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace thicket::explorer
