@@ -18,6 +18,7 @@
 #include <benchmark/benchmark.h>
 
 #include "bench_worlds.h"
+#include "thicket/common/statistics.h"
 #include "thicket/explorer/gain.h"
 #include "thicket/mapper/tsdf_integrator.h"
 
@@ -63,11 +64,6 @@ const std::vector<Pose>& gainPoses() {
   return poses;
 }
 
-double percentile(std::vector<double> values, double q) {
-  std::sort(values.begin(), values.end());
-  return values[std::min(values.size() - 1, static_cast<size_t>(q * values.size()))];
-}
-
 // Arg: the stride. One pose per iteration; visible selects visibleUnknownFraction.
 void gainBenchmark(benchmark::State& state, bool visible) {
   const int stride = static_cast<int>(state.range(0));
@@ -105,11 +101,11 @@ void gainBenchmark(benchmark::State& state, bool visible) {
     error_max = std::max(error_max, error);
   }
   if (ms.empty()) return;
-  state.counters["median_ms"] = percentile(ms, 0.5);
-  state.counters["p95_ms"] = percentile(ms, 0.95);
+  state.counters["median_ms"] = median(ms);
+  state.counters["p95_ms"] = quantile(ms, 0.95);
   state.counters["mean_abs_error"] = error_sum / static_cast<double>(ms.size());
   state.counters["max_abs_error"] = error_max;
-  state.counters["speedup"] = percentile(exact_ms, 0.5) / percentile(ms, 0.5);
+  state.counters["speedup"] = median(exact_ms) / median(ms);
   state.counters["fraction"] = 1.0 / stride;
 }
 

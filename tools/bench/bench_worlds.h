@@ -13,6 +13,7 @@
 
 #include "thicket/common/depth_image.h"
 #include "thicket/common/geometry.h"
+#include "thicket/common/statistics.h"
 #include "thicket/sim/ground_truth.h"
 #include "thicket/sim/render.h"
 #include "thicket/sim/world.h"
@@ -109,9 +110,8 @@ std::vector<double> flyFlight(benchmark::State& state, Step&& step, size_t strid
 /// library does not say).
 inline void reportFrameTimes(benchmark::State& state, std::vector<double> ms, size_t memory_bytes) {
   if (ms.empty()) return;
-  std::sort(ms.begin(), ms.end());
-  state.counters["median_ms"] = ms[ms.size() / 2];
-  state.counters["p95_ms"] = ms[std::min(ms.size() - 1, (ms.size() * 95) / 100)];
+  state.counters["median_ms"] = median(ms);
+  state.counters["p95_ms"] = quantile(ms, 0.95);
   state.counters["MiB"] = static_cast<double>(memory_bytes) / (1 << 20);
 }
 

@@ -45,12 +45,6 @@ struct Method {
   const char* name;
   MethodNodes (*host)(lcm::LCM& lcm, const sim::World& world);
 };
-double wallClockMs() {
-  return std::chrono::duration<double, std::milli>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
-
 // An explorer node running `strategy`, seeded by the world and confined to its volume.
 MethodNodes explorerNodes(lcm::LCM& lcm, const sim::World& world, const char* strategy) {
   explorer::ExplorerNodeOptions options;
@@ -59,7 +53,7 @@ MethodNodes explorerNodes(lcm::LCM& lcm, const sim::World& world, const char* st
   options.explorer.flight_volume_min = world.bounds_min;
   options.explorer.flight_volume_max = world.bounds_max;
   MethodNodes nodes;
-  nodes.push_back(std::make_unique<explorer::ExplorerNode>(lcm, options, wallClockMs));
+  nodes.push_back(std::make_unique<explorer::ExplorerNode>(lcm, options, steadyClockMillis));
   return nodes;
 }
 
@@ -344,10 +338,10 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   BenchNode bench(lcm);
   sim::SimNode sim(lcm, simOptions(options, world), world);
   mapper::MapperNode mapper(lcm, mapperOptions(), static_cast<int64_t>(world.seed) + 1,
-                            wallClockMs);
+                            steadyClockMillis);
   const MethodNodes method_nodes = findRow(kMethods, options.method).host(lcm, world);
   local_planner::LocalPlannerNode planner(
-      lcm, plannerOptions(options, world, !method_nodes.empty()), wallClockMs);
+      lcm, plannerOptions(options, world, !method_nodes.empty()), steadyClockMillis);
   const std::unique_ptr<Node> observer_node = observer ? observer(lcm) : nullptr;
 
   // The planner holds the goal before the first frame arrives.

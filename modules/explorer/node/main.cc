@@ -20,7 +20,7 @@ int main(int argc, char** argv) {
     return *exit_code;
   }
   // Wall-clock time only measures durations; no decision reads it.
-  const auto now_ms = [] { return thicket::steadyClockMicros() * 1e-3; };
+  const auto now_ms = thicket::steadyClockMillis;
   lcm::LCM lcm(args.lcm_url);
   if (!lcm.good()) return thicket::failNode(program, "cannot open LCM at " + args.lcm_url);
   thicket::Loop::installSignalHandlers();

@@ -141,10 +141,14 @@ void LocalPlannerNode::replan() {
   runCycle(state_->utime);
 }
 
+std::optional<DistanceField> LocalPlannerNode::mirrorField() const {
+  if (!mirror_.layer()) return std::nullopt;
+  return esdfField(*mirror_.layer());
+}
+
 void LocalPlannerNode::runCycle(int64_t utime) {
   const double t0 = now_ms_();
-  std::optional<DistanceField> field;
-  if (mirror_.layer()) field = esdfField(*mirror_.layer());
+  const std::optional<DistanceField> field = mirrorField();
   const CycleReport report =
       planner_.plan(utime, field ? &*field : nullptr, mirror_.utime(), mirror_.revision(), state_);
   publishReport(report, now_ms_() - t0);
@@ -237,8 +241,7 @@ void LocalPlannerNode::onExplorerGoal(const goal_t& msg) {
     }
   }
   const double t0 = now_ms_();
-  std::optional<DistanceField> field;
-  if (mirror_.layer()) field = esdfField(*mirror_.layer());
+  const std::optional<DistanceField> field = mirrorField();
   const CycleReport report = planner_.answer(goal, reason, field ? &*field : nullptr);
   publishReport(report, now_ms_() - t0);
 }

@@ -60,6 +60,8 @@ class LocalPlannerNode : public Node {
   void onState(const odometry_t& msg);
   void onMissionGoal(const goal_t& msg);
   void onExplorerGoal(const goal_t& msg);
+  // The mirrored ESDF as the planner reads it; nothing before the first snapshot.
+  std::optional<DistanceField> mirrorField() const;
   void runPending();
   void runCycle(int64_t utime);
   // The cycle's trajectory (if any), status and timing (total_ms: the whole cycle, measured).

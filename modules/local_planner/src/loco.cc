@@ -273,8 +273,11 @@ LocoResult Loco::solve(const SplineEnds& ends, bool free_end, const DistanceFiel
   int best_rank = 3;
   int stretches = 0;
   std::optional<Derivatives> warm_start;
+  // Rebuilt only when a stretch changes the segment times; restarts reuse it.
+  std::optional<LocoProblem> built;
   for (;;) {
-    const LocoProblem problem(options_, JerkSpline(times, free_end), ends, field);
+    if (!built) built.emplace(options_, JerkSpline(times, free_end), ends, field);
+    const LocoProblem& problem = *built;
     const JerkSpline& spline = problem.spline();
     Derivatives free;
     if (warm_start) {
@@ -316,6 +319,7 @@ LocoResult Loco::solve(const SplineEnds& ends, bool free_end, const DistanceFiel
         }
       }
       warm_start = free;
+      built.reset();
       ++stretches;
       continue;
     }

@@ -21,7 +21,7 @@ int main(int argc, char** argv) {
     return *exit_code;
   }
   // Only measured durations and the map id read the wall clock; no decision does.
-  const auto now_ms = [] { return thicket::steadyClockMicros() * 1e-3; };
+  const auto now_ms = thicket::steadyClockMillis;
   const int64_t map_id = options.map_id != 0
                              ? options.map_id
                              : std::chrono::duration_cast<std::chrono::microseconds>(

@@ -16,6 +16,10 @@ namespace thicket {
 /// decisions never read it.
 using MonotonicClock = std::function<int64_t()>;
 int64_t steadyClockMicros();
+/// The same clock in milliseconds: what nodes measure their stage durations with.
+inline double steadyClockMillis() {
+  return static_cast<double>(steadyClockMicros()) * 1e-3;
+}
 
 class Loop {
  public:
