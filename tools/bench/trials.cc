@@ -37,32 +37,31 @@ namespace {
 // which is noiseless by default.
 constexpr const char* kStateChannel = "VIO_ODOMETRY";
 
-// The goal-selection strategies (BENCHMARK.md, E2). A method is the nodes it adds to a trial's
-// graph; when it adds any, the planner asks them for intermediate goals when stuck. Adding a
-// strategy is adding a row here.
-using MethodNodes = std::vector<std::unique_ptr<Node>>;
+// The goal-selection strategies (BENCHMARK.md, E2): the explorer strategy a method runs, or
+// none (no explorer in the graph; the planner holds when stuck). Adding a strategy is adding a row.
 struct Method {
   const char* name;
-  MethodNodes (*host)(lcm::LCM& lcm, const sim::World& world);
+  const char* strategy;  // explorer::ExplorerOptions::strategy, or nullptr
 };
-// An explorer node running `strategy`, seeded by the world and confined to its volume.
-MethodNodes explorerNodes(lcm::LCM& lcm, const sim::World& world, const char* strategy) {
+const Method kMethods[] = {
+    {"none", nullptr},
+    {"random", "random"},
+    {"rrt_star_optimistic", "rrt_star_optimistic"},
+    {"rrt_star_conservative", "rrt_star_conservative"},
+    {"nbvp", "nbvp"},
+    {"local_exploration", "local_exploration"},
+};
+
+// The explorer node of `method`, seeded by the world and confined to its volume; none for none.
+std::unique_ptr<Node> explorerNode(lcm::LCM& lcm, const sim::World& world, const Method& method) {
+  if (method.strategy == nullptr) return nullptr;
   explorer::ExplorerNodeOptions options;
-  options.explorer.strategy = strategy;
+  options.explorer.strategy = method.strategy;
   options.explorer.seed = static_cast<int64_t>(world.seed);
   options.explorer.flight_volume_min = world.bounds_min;
   options.explorer.flight_volume_max = world.bounds_max;
-  MethodNodes nodes;
-  nodes.push_back(std::make_unique<explorer::ExplorerNode>(lcm, options, steadyClockMillis));
-  return nodes;
+  return std::make_unique<explorer::ExplorerNode>(lcm, options, steadyClockMillis);
 }
-
-const Method kMethods[] = {
-    {"none", [](lcm::LCM&, const sim::World&) { return MethodNodes{}; }},
-    {"random", [](lcm::LCM& lcm, const sim::World& w) { return explorerNodes(lcm, w, "random"); }},
-    {"local_exploration",
-     [](lcm::LCM& lcm, const sim::World& w) { return explorerNodes(lcm, w, "local_exploration"); }},
-};
 
 // The goal-finding variants of the optimization-only experiment (BENCHMARK.md, E1).
 struct GoalFinding {
@@ -339,9 +338,10 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   sim::SimNode sim(lcm, simOptions(options, world), world);
   mapper::MapperNode mapper(lcm, mapperOptions(), static_cast<int64_t>(world.seed) + 1,
                             steadyClockMillis);
-  const MethodNodes method_nodes = findRow(kMethods, options.method).host(lcm, world);
-  local_planner::LocalPlannerNode planner(
-      lcm, plannerOptions(options, world, !method_nodes.empty()), steadyClockMillis);
+  const std::unique_ptr<Node> explorer =
+      explorerNode(lcm, world, findRow(kMethods, options.method));
+  local_planner::LocalPlannerNode planner(lcm, plannerOptions(options, world, explorer != nullptr),
+                                          steadyClockMillis);
   const std::unique_ptr<Node> observer_node = observer ? observer(lcm) : nullptr;
 
   // The planner holds the goal before the first frame arrives.

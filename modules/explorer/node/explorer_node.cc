@@ -20,22 +20,23 @@ ExplorerNode::ExplorerNode(lcm::LCM& lcm, const ExplorerNodeOptions& options,
       selector_(makeGoalSelector(options.explorer)) {
   // A full snapshot arrives as many parts at once.
   subscribe<map_update_t>(
-      "MAP_TSDF", [this](const map_update_t& msg, const MessageInfo&) { onMap(tsdf_, msg); }, 1000);
+      "MAP_TSDF",
+      [this](const map_update_t& msg, const MessageInfo&) { onMap(tsdf_, "MAP_TSDF", msg); }, 1000);
   subscribe<map_update_t>(
-      "MAP_ESDF", [this](const map_update_t& msg, const MessageInfo&) { onMap(esdf_, msg); }, 1000);
+      "MAP_ESDF",
+      [this](const map_update_t& msg, const MessageInfo&) { onMap(esdf_, "MAP_ESDF", msg); }, 1000);
   subscribe<planner_status_t>(
       "PLANNER_STATUS", [this](const planner_status_t& msg, const MessageInfo&) { onStatus(msg); });
 }
 
 template <class Voxel>
-void ExplorerNode::onMap(MapMirror<Voxel>& mirror, const map_update_t& msg) {
+void ExplorerNode::onMap(MapMirror<Voxel>& mirror, const char* channel, const map_update_t& msg) {
   const auto result = mirror.apply(msg);
   using Outcome = typename MapMirror<Voxel>::Outcome;
   if (result.outcome == Outcome::kNeedSnapshot) {
     publish("MAP_REQUEST", mirror.request(msg.utime, name()));
   } else if (result.outcome == Outcome::kRefused) {
-    reportBadMessage(msg.layer == map_update_t::LAYER_TSDF ? "MAP_TSDF" : "MAP_ESDF",
-                     result.reason);
+    reportBadMessage(channel, result.reason);
   }
 }
 

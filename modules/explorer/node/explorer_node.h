@@ -41,7 +41,7 @@ class ExplorerNode : public Node {
 
  private:
   template <class Voxel>
-  void onMap(MapMirror<Voxel>& mirror, const map_update_t& msg);
+  void onMap(MapMirror<Voxel>& mirror, const char* channel, const map_update_t& msg);
   void onStatus(const planner_status_t& msg);
 
   ExplorerNodeOptions options_;

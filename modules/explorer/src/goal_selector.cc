@@ -6,6 +6,7 @@
 #include <random>
 #include <stdexcept>
 
+#include "strategies.h"
 #include "thicket/common/esdf_query.h"
 #include "thicket/common/random.h"
 
@@ -27,28 +28,37 @@ void ExplorerOptions::declare(Params& p) {
   p("flight_volume_min", flight_volume_min, "candidates lie in this box: its low corner [m]");
   p("flight_volume_max", flight_volume_max, "... and its high corner [m]");
   p.group("gain", gain, "the camera whose frustum the exploration gain counts");
+  p.group("rrt_star", rrt_star, "the RRT* baselines (rrt_star_optimistic, rrt_star_conservative)");
+  p.group("nbvp", nbvp, "the next-best-view baseline");
+}
+
+void RrtStarOptions::declare(Params& p) {
+  p("iterations", iterations, "RRT* iterations per request", Range::between(1, 1000000));
+  p("range", range, "longest tree edge [m]", Range::positive());
+  p("goal_bias", goal_bias, "probability of sampling the goal", Range::between(0, 1));
+  p("goal_tolerance", goal_tolerance, "a node this close to the goal reaches it [m]",
+    Range::positive());
+  p("check_step", check_step, "edges are checked for collisions every this [m]", Range::positive());
+  p("box_margin", box_margin,
+    "the tree grows in the bounding box of start and goal grown by this [m]", Range::atLeast(0));
+}
+
+void NbvpOptions::declare(Params& p) {
+  p("initial_nodes", initial_nodes, "N_T: the tree grows at least this many nodes",
+    Range::between(1, 100000));
+  p("max_nodes", max_nodes, "... and at most this many, until a branch beats zero_gain",
+    Range::between(1, 100000));
+  p("range", range, "longest tree edge [m]", Range::positive());
+  p("lambda", lambda, "the gain decays as exp(-lambda * branch length) [1/m]", Range::atLeast(0));
+  p("zero_gain", zero_gain, "a best branch worth no more than this: nothing to explore",
+    Range::atLeast(0));
+  p("check_step", check_step, "edges are checked for collisions every this [m]", Range::positive());
 }
 
 namespace {
 
-using Rng = std::mt19937_64;
-
-// A uniform point in the ball of `radius` around `center`, inside the flight volume; nothing
-// after `max_draws` draws outside it.
-std::optional<Eigen::Vector3d> drawInBall(Rng& rng, const Eigen::Vector3d& center, double radius,
-                                          const ExplorerOptions& o, int max_draws) {
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (int draw = 0; draw < max_draws; ++draw) {
-    const Eigen::Vector3d offset(u(rng), u(rng), u(rng));
-    if (offset.squaredNorm() > 1) continue;
-    const Eigen::Vector3d p = center + radius * offset;
-    if ((p.array() >= o.flight_volume_min.array()).all() &&
-        (p.array() <= o.flight_volume_max.array()).all()) {
-      return p;
-    }
-  }
-  return std::nullopt;
-}
+using detail::drawInBall;
+using detail::Rng;
 
 class NoneSelector final : public GoalSelector {
  public:
@@ -102,13 +112,13 @@ class LocalExplorationSelector final : public GoalSelector {
       proposal.map_missing = true;
       return proposal;
     }
-    const ExplorationGain& gain = gainFor(maps.tsdf->voxelSize());
+    const ExplorationGain& gain = gains_.forVoxelSize(maps.tsdf->voxelSize());
     const double d_g = (request.goal - request.start).norm() + options_.radius;
     double best = -std::numeric_limits<double>::infinity();
     int candidates = 0;
     for (int draw = 0; draw < options_.max_draws && candidates < options_.candidates; ++draw) {
       const auto x = drawInBall(rng, request.start, options_.radius, options_, 1);
-      if (!x || !observedFree(*x, maps)) continue;
+      if (!x || !detail::observedFree(options_, maps, *x)) continue;
       ++candidates;
       // Face away from the start, then look: the gain is that of the view the vehicle will have.
       const Eigen::Vector3d away = *x - request.start;
@@ -140,33 +150,70 @@ class LocalExplorationSelector final : public GoalSelector {
   }
 
  private:
-  // Observed in the TSDF, and clear of obstacles (and of unknown space) in the ESDF.
-  bool observedFree(const Eigen::Vector3d& x, const MapView& maps) const {
-    const TsdfVoxel* voxel = maps.tsdf->voxel(maps.tsdf->voxelIndex(x));
-    if (voxel == nullptr || !(voxel->weight >= options_.gain.min_weight) || voxel->distance <= 0) {
-      return false;
-    }
-    const EsdfSample sample = sampleEsdf(*maps.esdf, x);
-    return sample.known && sample.distance >= options_.min_clearance;
-  }
-
-  const ExplorationGain& gainFor(double voxel_size) {
-    if (!gain_ || gain_voxel_size_ != voxel_size) {
-      gain_.emplace(options_.gain, voxel_size);
-      gain_voxel_size_ = voxel_size;
-    }
-    return *gain_;
-  }
-
   ExplorerOptions options_;
-  std::optional<ExplorationGain> gain_;
-  double gain_voxel_size_ = 0;
+  detail::GainCache gains_{options_.gain};
 };
 
 }  // namespace
 
+namespace detail {
+
+bool inFlightVolume(const ExplorerOptions& o, const Eigen::Vector3d& p) {
+  return (p.array() >= o.flight_volume_min.array()).all() &&
+         (p.array() <= o.flight_volume_max.array()).all();
+}
+
+std::optional<Eigen::Vector3d> drawInBall(Rng& rng, const Eigen::Vector3d& center, double radius,
+                                          const ExplorerOptions& o, int max_draws) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int draw = 0; draw < max_draws; ++draw) {
+    const Eigen::Vector3d offset(u(rng), u(rng), u(rng));
+    if (offset.squaredNorm() > 1) continue;
+    const Eigen::Vector3d p = center + radius * offset;
+    if (inFlightVolume(o, p)) return p;
+  }
+  return std::nullopt;
+}
+
+bool esdfFree(const ExplorerOptions& o, const EsdfLayer& esdf, const Eigen::Vector3d& p,
+              double clearance) {
+  if (!inFlightVolume(o, p)) return false;
+  const EsdfSample sample = sampleEsdf(esdf, p);
+  return sample.known && sample.distance >= clearance;
+}
+
+bool esdfSegmentFree(const ExplorerOptions& o, const EsdfLayer& esdf, const Eigen::Vector3d& a,
+                     const Eigen::Vector3d& b, double clearance, double step) {
+  const int steps = std::max(1, static_cast<int>(std::ceil((b - a).norm() / step)));
+  for (int i = 0; i <= steps; ++i) {
+    if (!esdfFree(o, esdf, a + (b - a) * (static_cast<double>(i) / steps), clearance)) return false;
+  }
+  return true;
+}
+
+std::optional<double> treeClearance(const ExplorerOptions& o, const EsdfLayer& esdf,
+                                    const Eigen::Vector3d& start) {
+  const EsdfSample sample = sampleEsdf(esdf, start);
+  if (!sample.known || !inFlightVolume(o, start) || sample.distance < 0.5 * o.min_clearance) {
+    return std::nullopt;
+  }
+  return std::min(o.min_clearance, sample.distance);
+}
+
+bool observedFree(const ExplorerOptions& o, const MapView& maps, const Eigen::Vector3d& p) {
+  const TsdfVoxel* voxel = maps.tsdf->voxel(maps.tsdf->voxelIndex(p));
+  if (voxel == nullptr || !(voxel->weight >= o.gain.min_weight) || voxel->distance <= 0) {
+    return false;
+  }
+  return esdfFree(o, *maps.esdf, p, o.min_clearance);
+}
+
+}  // namespace detail
+
 const std::vector<std::string>& strategyNames() {
-  static const std::vector<std::string> names = {"none", "random", "local_exploration"};
+  static const std::vector<std::string> names = {
+      "none", "random",           "rrt_star_optimistic", "rrt_star_conservative",
+      "nbvp", "local_exploration"};
   return names;
 }
 
@@ -175,12 +222,23 @@ std::unique_ptr<GoalSelector> makeGoalSelector(const ExplorerOptions& o) {
   if (!positive(o.radius) || o.candidates < 1 || o.subsample < 1 || !(o.w_e >= 0) ||
       !(o.w_g >= 0) || !(o.p_goal >= 0 && o.p_goal <= 1) || !positive(o.min_clearance) ||
       o.max_draws < 1 || !o.flight_volume_min.allFinite() || !o.flight_volume_max.allFinite() ||
-      !(o.flight_volume_min.array() < o.flight_volume_max.array()).all()) {
+      !(o.flight_volume_min.array() < o.flight_volume_max.array()).all() ||
+      o.rrt_star.iterations < 1 || !positive(o.rrt_star.range) ||
+      !(o.rrt_star.goal_bias >= 0 && o.rrt_star.goal_bias <= 1) ||
+      !positive(o.rrt_star.goal_tolerance) || !positive(o.rrt_star.check_step) ||
+      !(o.rrt_star.box_margin >= 0) || !std::isfinite(o.rrt_star.box_margin) ||
+      o.nbvp.initial_nodes < 1 || o.nbvp.max_nodes < o.nbvp.initial_nodes ||
+      !positive(o.nbvp.range) || !(o.nbvp.lambda >= 0) || !std::isfinite(o.nbvp.lambda) ||
+      !(o.nbvp.zero_gain >= 0) || !std::isfinite(o.nbvp.zero_gain) ||
+      !positive(o.nbvp.check_step)) {
     throw std::invalid_argument("explorer: an option is out of range (see ExplorerOptions)");
   }
   if (o.strategy == "none") return std::make_unique<NoneSelector>();
   if (o.strategy == "random") return std::make_unique<RandomSelector>(o);
   if (o.strategy == "local_exploration") return std::make_unique<LocalExplorationSelector>(o);
+  if (o.strategy == "rrt_star_optimistic") return detail::makeRrtStar(o, /*optimistic=*/true);
+  if (o.strategy == "rrt_star_conservative") return detail::makeRrtStar(o, /*optimistic=*/false);
+  if (o.strategy == "nbvp") return detail::makeNbvp(o);
   throw std::invalid_argument("explorer: unknown strategy '" + o.strategy + "'");
 }
 

@@ -3,54 +3,12 @@
 
 #include <cmath>
 
+#include "hand_maps.h"
 #include "thicket/common/esdf_query.h"
 #include "thicket/explorer/goal_selector.h"
 
 namespace thicket::explorer {
 namespace {
-
-constexpr double kVoxel = 0.2;
-
-// A world seen only inside a box around the start: observed free there (TSDF distance 1, ESDF
-// distance to the box's walls... and to a wall at x = wall_x when given), unknown elsewhere.
-struct HandMap {
-  TsdfLayer tsdf{kVoxel};
-  EsdfLayer esdf{kVoxel};
-};
-
-HandMap observedBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
-  HandMap map;
-  const VoxelIndex a = map.tsdf.voxelIndex(lo), b = map.tsdf.voxelIndex(hi);
-  for (int x = a.x(); x <= b.x(); ++x) {
-    for (int y = a.y(); y <= b.y(); ++y) {
-      for (int z = a.z(); z <= b.z(); ++z) {
-        const Eigen::Vector3d c = map.tsdf.voxelCenter({x, y, z});
-        map.tsdf.allocateVoxel({x, y, z}) = TsdfVoxel{0.8f, 1.0f};
-        // Distance to the boundary of the observed box: beyond it the planner sees obstacles.
-        const double d = std::min((c - lo).minCoeff(), (hi - c).minCoeff());
-        EsdfVoxel& e = map.esdf.allocateVoxel({x, y, z});
-        e.distance = static_cast<float>(d);
-        e.observed = true;
-      }
-    }
-  }
-  return map;
-}
-
-ExplorationRequest request(int64_t cycle) {
-  ExplorationRequest r;
-  r.cycle = cycle;
-  r.start = Eigen::Vector3d(0, 0, 1.5);
-  r.goal = Eigen::Vector3d(20, 0, 1.5);
-  return r;
-}
-
-ExplorerOptions optionsFor(const std::string& strategy) {
-  ExplorerOptions o;
-  o.strategy = strategy;
-  o.seed = 3;
-  return o;
-}
 
 TEST(GoalSelector, NoneProposesNothing) {
   const auto selector = makeGoalSelector(optionsFor("none"));

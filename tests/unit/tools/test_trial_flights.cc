@@ -1,11 +1,12 @@
-// The real graph (sim, mapper, local planner) flying the paper's forest in-process, as
-// `thicket-bench run` flies it: the planner reaches the goal on an easy world, never comes closer
-// to an obstacle than the robot radius (ground truth) on dense ones, keeps the limits, and flies
-// the same path twice.
+// The real graph (sim, mapper, local planner, and the method's explorer) flying the paper's forest
+// in-process, as `thicket-bench run` flies it: the planner reaches the goal on an easy world, never
+// comes closer to an obstacle than the robot radius (ground truth) on dense ones with any
+// goal-selection strategy, keeps the limits, and flies the same path twice.
 #include <gtest/gtest.h>
 
 #include <string>
 
+#include "thicket/explorer/goal_selector.h"
 #include "trials.h"
 
 namespace thicket::bench {
@@ -59,6 +60,29 @@ TEST(TrialFlights, FlyTheSamePathTwice) {
     ASSERT_EQ(a.path[i].position, b.path[i].position) << "sample " << i;
   }
   EXPECT_EQ(a.num_replans, b.num_replans);
+}
+
+// Every goal-selection strategy is a method of the benchmark, and flies safely and reproducibly
+// where the forest blocks the optimizer.
+TEST(TrialFlights, EveryStrategyFliesSafelyAndTheSamePathTwice) {
+  for (const std::string& strategy : explorer::strategyNames()) {
+    RunOptions options = paper(0.3, 30);
+    options.method = strategy;
+    ASSERT_TRUE(parseRunOptions(
+        {"--density", "0.3", "--trials", "1", "--method", strategy, "--out", "unused"}))
+        << strategy << " is not a method of thicket-bench run";
+    const TrialResult a = fly(options, 3);
+    const TrialResult b = fly(options, 3);
+    SCOPED_TRACE(strategy + ": " + a.end_reason);
+    EXPECT_FALSE(a.collision) << "clearance " << a.min_clearance_m;
+    EXPECT_GE(a.min_clearance_m, 0.5);
+    EXPECT_TRUE(a.feasible);
+    EXPECT_EQ(a.end_reason.rfind("aborted", 0), std::string::npos);
+    ASSERT_EQ(a.path.size(), b.path.size());
+    for (size_t i = 0; i < a.path.size(); ++i) {
+      ASSERT_EQ(a.path[i].position, b.path[i].position) << "sample " << i;
+    }
+  }
 }
 
 }  // namespace

@@ -48,6 +48,7 @@ class ExplorationGain {
   ExplorationGain(GainOptions options, double voxel_size);
 
   const GainOptions& options() const { return options_; }
+  double voxelSize() const { return voxel_size_; }
   const PinholeCamera& camera() const { return camera_; }
   /// Grid points in the frustum (what stride 1 checks).
   int64_t frustumPoints() const;

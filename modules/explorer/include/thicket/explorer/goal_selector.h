@@ -1,9 +1,20 @@
 // Intermediate goal selection (DESIGN §1, step 3): when the local planner is stuck, a strategy
 // proposes where to go next. Strategies are selected by name and seeded from the configuration and
-// the planner cycle they answer, so the same request gives the same proposal in any process layout.
+// the planner cycle they answer, so the same request gives the same proposal in any process layout
+// (nbvp also re-seeds its tree from its previous answer, so its answers follow from the sequence
+// of requests, as in a replay).
 //
-//   none               proposes nothing (the optimization-only baseline)
-//   random             a uniformly random point in the sphere of radius r around the start
+//   none                   proposes nothing (the optimization-only baseline)
+//   random                 a uniformly random point in the sphere of radius r around the start
+//   rrt_star_optimistic    OMPL RRT* toward the global goal on the TSDF, unknown space free: the
+//                          path (to the goal, or to the tree node closest to it), waypoint by
+//                          waypoint
+//   rrt_star_conservative  OMPL RRT* toward the global goal on the ESDF, unknown space occupied:
+//                          the branch to the tree node closest to the goal
+//   nbvp                   receding-horizon next-best-view (Bircher et al. 2016): an RRT in
+//                          position and yaw in observed free space, each node's gain the visible
+//                          unknown fraction decayed by exp(-lambda * branch length), summed along
+//                          the branch; the first edge of the best branch
 //   local_exploration  the paper's method: with probability P_g the global goal; otherwise N points
 //                      sampled in observed free space within r of the start, each facing away from
 //                      the start, scored R = w_e l + w_g (d_g - ||g - x||) / d_g with l the unknown
@@ -49,8 +60,33 @@ struct Proposal {
   int64_t gain_evaluations = 0;
 };
 
+/// The RRT* baselines. Budgets are iterations, so answers are deterministic.
+struct RrtStarOptions {
+  int iterations = 1500;        ///< RRT* iterations per request
+  double range = 1.5;           ///< longest tree edge [m]
+  double goal_bias = 0.05;      ///< probability of sampling the goal
+  double goal_tolerance = 0.3;  ///< a node this close to the goal reaches it [m]
+  double check_step = 0.1;      ///< edges are checked for collisions every this [m]
+  /// The tree grows in the bounding box of start and goal grown by this, inside the flight volume.
+  double box_margin = 5.0;
+
+  void declare(Params& p);
+};
+
+/// The next-best-view baseline. Budgets are node counts, so answers are deterministic.
+struct NbvpOptions {
+  int initial_nodes = 15;   ///< N_T: the tree grows at least this many nodes ...
+  int max_nodes = 200;      ///< ... and at most this many, until a branch's value beats zero_gain
+  double range = 1.0;       ///< longest tree edge [m]
+  double lambda = 0.5;      ///< the gain of a node decays as exp(-lambda * branch length) [1/m]
+  double zero_gain = 0.0;   ///< a best branch worth no more than this: nothing left to explore
+  double check_step = 0.1;  ///< edges are checked for collisions every this [m]
+
+  void declare(Params& p);
+};
+
 struct ExplorerOptions {
-  /// One of: none, random, local_exploration.
+  /// One of strategyNames().
   std::string strategy = "local_exploration";
   int64_t seed = 0;     ///< draws are seeded from this and the cycle
   double radius = 5.0;  ///< r: candidates lie within this of the start [m]
@@ -65,6 +101,8 @@ struct ExplorerOptions {
   Eigen::Vector3d flight_volume_min = Eigen::Vector3d(-1000, -1000, 0.5);
   Eigen::Vector3d flight_volume_max = Eigen::Vector3d(1000, 1000, 100);
   GainOptions gain;
+  RrtStarOptions rrt_star;
+  NbvpOptions nbvp;
 
   void declare(Params& p);
 };
