@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 #include "thicket/common/random.h"
@@ -40,7 +41,8 @@ void LocalPlannerOptions::declare(Params& p) {
     Range::positive());
   p("max_state_age", max_state_age, "older state estimates are stale [s]", Range::positive());
   p("max_map_age", max_map_age, "older maps are stale [s]", Range::positive());
-  p("flight_volume_min", flight_volume_min, "goals must lie in this box: its low corner [m]");
+  p("flight_volume_min", flight_volume_min,
+    "goals and trajectories stay in this box: its low corner [m]");
   p("flight_volume_max", flight_volume_max, "... and its high corner [m]");
   p("use_explorer", use_explorer,
     "an explorer is running: stuck cycles wait for its intermediate goal");
@@ -136,8 +138,30 @@ void LocalPlanner::hold(CycleReport& report, CycleState state, const std::string
   }
 }
 
-bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
+DistanceField LocalPlanner::fenced(const DistanceField& field) const {
+  const Eigen::Vector3d lo = options_.flight_volume_min, hi = options_.flight_volume_max;
+  const double clearance = options_.loco.robot_radius + options_.loco.clearance_margin;
+  return [&field, lo, hi, clearance](const Eigen::Vector3d& p) {
+    EsdfSample sample = field(p);
+    if (!sample.known) return sample;
+    // The nearest face, by the distance inside (negative outside) and its inward normal.
+    double face = std::numeric_limits<double>::infinity();
+    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 3; ++i) {
+      if (p[i] - lo[i] < face) face = p[i] - lo[i], normal = Eigen::Vector3d::Unit(i);
+      if (hi[i] - p[i] < face) face = hi[i] - p[i], normal = -Eigen::Vector3d::Unit(i);
+    }
+    if (face + clearance < sample.distance) {
+      sample.distance = face + clearance;
+      sample.gradient = normal;
+    }
+    return sample;
+  };
+}
+
+bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceField& map_field,
                               CycleReport& report) {
+  const DistanceField field = fenced(map_field);
   const Eigen::Vector3d& target = goal.waypoints[waypoint];
   report.goal_id = goal.id;
   report.goal_from_explorer = goal.from_explorer;

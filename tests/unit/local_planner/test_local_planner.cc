@@ -484,6 +484,52 @@ TEST(LocalPlanner, AFullyBlockingWallIsStuckAndCommitsNothing) {
   EXPECT_TRUE(sameSegments(*pilot.planner.committed(), *before));
 }
 
+// A wall 2 m high across the way, infinite sideways, and a mission waypoint above it: the vehicle
+// flies over the wall and never above the flight volume's ceiling, 3.6 m.
+TEST(LocalPlanner, TrajectoriesStayBelowTheCeiling) {
+  const DistanceField field = boxesField({boxFromCorners({2.5, -50, -50}, {3.5, 50, 2.0})});
+  LocalPlannerOptions options;
+  options.flight_volume_min = Eigen::Vector3d(-20, -20, 0);
+  options.flight_volume_max = Eigen::Vector3d(20, 20, 3.6);
+  Pilot pilot(options);
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {Eigen::Vector3d(3, 0, 3.0), kMission})));
+  double highest = 0;
+  CycleReport last;
+  for (int k = 0; k < 40; ++k) {
+    last = pilot.cycle(field);
+    if (last.trajectory) {
+      for (double t = 0; t <= last.trajectory->duration(); t += 0.01) {
+        highest = std::max(highest, last.trajectory->evaluate(t).z());
+      }
+    }
+    if (last.state != CycleState::kPlanned) break;
+  }
+  EXPECT_EQ(last.state, CycleState::kGoalReached) << last.reason;
+  EXPECT_GT(highest, 2.0 + options.loco.robot_radius);  // it did fly over the wall
+  EXPECT_LE(highest, 3.6 + 1e-9);
+}
+
+// Climbing at 1 m/s 0.1 m below the ceiling, every trajectory overshoots it (the stopping distance
+// at a_max is 0.25 m): none is acceptable, though the map is free (the vehicle hovers and the
+// report says why). Under a high ceiling it plans.
+TEST(LocalPlanner, RefusesTrajectoriesThatLeaveTheFlightVolume) {
+  for (const double ceiling : {3.0, 100.0}) {
+    LocalPlannerOptions options;
+    options.flight_volume_max.z() = ceiling;
+    LocalPlanner planner(options);
+    ASSERT_FALSE(planner.setMissionGoal(goalAt(1, {kMission})));
+    const DistanceField field = freeSpace();
+    const CycleReport report = planner.plan(
+        kT0, &field, kT0, 1, stateAt(kT0, Eigen::Vector3d(0, 0, 2.9), Eigen::Vector3d(0, 0, 1)));
+    if (ceiling < 10) {
+      EXPECT_EQ(report.state, CycleState::kStuck);
+      EXPECT_TRUE(contains(report.reason, "distance")) << report.reason;
+    } else {
+      EXPECT_EQ(report.state, CycleState::kPlanned) << report.reason;
+    }
+  }
+}
+
 TEST(LocalPlanner, AThickWallIsStuckTooNotPlannedInPlace) {
   // A wall 17.5 m thick: the horizon goal is deep inside it, and the nearest way out of it (the
   // ESDF gradient) leads back toward the vehicle. Hovering in front of the wall is no progress

@@ -136,6 +136,11 @@ class LocalPlanner {
   int64_t cycles() const { return cycle_; }
 
  private:
+  // The flight volume as a wall the vehicle's centre may touch but not cross: where it is nearer
+  // than the map's obstacles, the field reads the distance to the nearest face plus the clearance
+  // the acceptance needs, so the collision potential keeps trajectories inside and the clearance
+  // check refuses any sample outside (goal finding too). Unknown space stays unknown.
+  DistanceField fenced(const DistanceField& field) const;
   // Plans toward the current waypoint of the tracked goal; fills the report, commits on success.
   bool planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
                   CycleReport& report);
