@@ -196,7 +196,11 @@ void SimNode::advance() {
       finish("replan limit reached", sim_event_t::OUTCOME_REPLAN_LIMIT);
       break;
     case Outcome::kCollision:
-      finish("collision", sim_event_t::OUTCOME_COLLISION);
+      // The vehicle also fails by leaving the flight volume through the top, clear of obstacles.
+      finish(report.collision && report.collision->clearance >= world_.robot_radius
+                 ? "left the flight volume"
+                 : "collision",
+             sim_event_t::OUTCOME_COLLISION);
       break;
   }
 }
