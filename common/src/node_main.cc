@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 
 namespace thicket {
 
@@ -43,6 +44,19 @@ Expected<NodeArgs> parseNodeArgs(int argc, const char* const* argv) {
     *target = value;
   }
   return args;
+}
+
+int runNode(const std::string& program, const std::string& lcm_url,
+            const std::function<int(lcm::LCM&, Loop&)>& body) {
+  lcm::LCM lcm(lcm_url);
+  if (!lcm.good()) return failNode(program, "cannot open LCM at " + lcm_url);
+  Loop::installSignalHandlers();
+  try {
+    Loop loop(lcm);
+    return body(lcm, loop);
+  } catch (const std::exception& e) {
+    return failNode(program, e.what());
+  }
 }
 
 int failNode(const std::string& program, const std::string& message) {

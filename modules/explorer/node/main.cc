@@ -20,17 +20,10 @@ int main(int argc, char** argv) {
     return *exit_code;
   }
   // Wall-clock time only measures durations; no decision reads it.
-  const auto now_ms = thicket::steadyClockMillis;
-  lcm::LCM lcm(args.lcm_url);
-  if (!lcm.good()) return thicket::failNode(program, "cannot open LCM at " + args.lcm_url);
-  thicket::Loop::installSignalHandlers();
-  try {
-    thicket::Loop loop(lcm);
-    thicket::explorer::ExplorerNode node(lcm, options, now_ms);
+  return thicket::runNode(program, args.lcm_url, [&](lcm::LCM& lcm, thicket::Loop& loop) {
+    thicket::explorer::ExplorerNode node(lcm, options, thicket::steadyClockMillis);
     loop.run();
     std::printf("%s: %s\n", program.c_str(), node.summary().c_str());
-  } catch (const std::exception& e) {
-    return thicket::failNode(program, e.what());
-  }
-  return 0;
+    return 0;
+  });
 }

@@ -22,11 +22,7 @@ int main(int argc, char** argv) {
   }
   // Wall-clock time measures durations and paces the vehicle's timers; no decision reads it.
   const auto now_ms = thicket::steadyClockMillis;
-  lcm::LCM lcm(args.lcm_url);
-  if (!lcm.good()) return thicket::failNode(program, "cannot open LCM at " + args.lcm_url);
-  thicket::Loop::installSignalHandlers();
-  try {
-    thicket::Loop loop(lcm);
+  return thicket::runNode(program, args.lcm_url, [&](lcm::LCM& lcm, thicket::Loop& loop) {
     thicket::local_planner::LocalPlannerNode node(lcm, options, now_ms);
     if (options.replan_rate > 0) {
       loop.addTimer(static_cast<int64_t>(1e6 / options.replan_rate), [&node] { node.replan(); });
@@ -49,8 +45,6 @@ int main(int argc, char** argv) {
     }
     loop.run();
     std::printf("%s: %s\n", program.c_str(), node.summary().c_str());
-  } catch (const std::exception& e) {
-    return thicket::failNode(program, e.what());
-  }
-  return 0;
+    return 0;
+  });
 }

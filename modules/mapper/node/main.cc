@@ -27,19 +27,13 @@ int main(int argc, char** argv) {
                              : std::chrono::duration_cast<std::chrono::microseconds>(
                                    std::chrono::system_clock::now().time_since_epoch())
                                    .count();
-  lcm::LCM lcm(args.lcm_url);
-  if (!lcm.good()) return thicket::failNode(program, "cannot open LCM at " + args.lcm_url);
-  thicket::Loop::installSignalHandlers();
-  try {
-    thicket::Loop loop(lcm);
+  return thicket::runNode(program, args.lcm_url, [&](lcm::LCM& lcm, thicket::Loop& loop) {
     thicket::mapper::MapperNode node(lcm, options, map_id, now_ms);
     loop.run();
     std::printf("%s: %s\n", program.c_str(), node.summary().c_str());
     if (const std::string saved = node.saveIfConfigured(); !saved.empty()) {
       std::printf("%s: map saved to %s\n", program.c_str(), saved.c_str());
     }
-  } catch (const std::exception& e) {
-    return thicket::failNode(program, e.what());
-  }
-  return 0;
+    return 0;
+  });
 }

@@ -195,10 +195,7 @@ int runCommand(int argc, char** argv) {
   auto world = makeWorld(options);
   if (!world) return fail(world.error());
 
-  lcm::LCM lcm(args->lcm_url);
-  thicket::Loop::installSignalHandlers();
-  try {
-    thicket::Loop loop(lcm);
+  return thicket::runNode("thicket-sim", args->lcm_url, [&](lcm::LCM& lcm, thicket::Loop& loop) {
     thicket::sim::SimNode node(lcm, options, std::move(*world));
     int64_t waited_since = thicket::steadyClockMicros();
     std::optional<int64_t> waited_for;
@@ -228,9 +225,7 @@ int runCommand(int argc, char** argv) {
                 node.finished() ? node.endReason().c_str() : "stopped", vehicle.cycle(),
                 vehicle.pathLength(), vehicle.minClearance());
     return vehicle.outcome() == thicket::sim::Outcome::kGoalReached ? 0 : 1;
-  } catch (const std::exception& e) {
-    return fail(e.what());
-  }
+  });
 }
 
 }  // namespace

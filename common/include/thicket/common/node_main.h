@@ -2,11 +2,15 @@
 #pragma once
 
 #include <cstdio>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include <lcm/lcm-cpp.hpp>
+
 #include "thicket/common/expected.h"
+#include "thicket/common/loop.h"
 #include "thicket/common/params.h"
 
 namespace thicket {
@@ -33,6 +37,12 @@ std::string commonNodeFlagsHelp();
 
 /// Prints "<program>: <message>" to stderr and returns 2, the exit code of a refused start.
 int failNode(const std::string& program, const std::string& message);
+
+/// The rest of a node's main: opens LCM at `lcm_url`, installs the signal handlers and runs
+/// `body` with the LCM and a Loop on it (body builds the node, runs the loop, prints its summary).
+/// Returns body's exit code, or failNode's when LCM does not open or body throws.
+int runNode(const std::string& program, const std::string& lcm_url,
+            const std::function<int(lcm::LCM&, Loop&)>& body);
 
 /// The start of a node's main that takes no arguments of its own: `<program> params` prints every
 /// option with its default; -h/--help prints `usage` and the common flags; any other argument is
