@@ -29,13 +29,10 @@
 #include "thicket/common/statistics.h"
 #include "thicket/common/time.h"
 #include "thicket/sim/ground_truth.h"
+#include "vio_bridge_node.h"
 
 namespace thicket::bench {
 namespace {
-
-// There is no vio_bridge node yet: the mapper and the planner read the simulator's odometry,
-// which is noiseless by default.
-constexpr const char* kStateChannel = "VIO_ODOMETRY";
 
 // The goal-selection strategies (BENCHMARK.md, E2): the explorer strategy a method runs, or
 // none (no explorer in the graph; the planner holds when stuck). Adding a strategy is adding a row.
@@ -284,16 +281,9 @@ sim::SimOptions simOptions(const RunOptions& options, const sim::World& world) {
   return sim;
 }
 
-mapper::MapperNodeOptions mapperOptions() {
-  mapper::MapperNodeOptions mapper;
-  mapper.state_channel = kStateChannel;
-  return mapper;
-}
-
 local_planner::LocalPlannerNodeOptions plannerOptions(const RunOptions& options,
                                                       const sim::World& world, bool use_explorer) {
   local_planner::LocalPlannerNodeOptions node;
-  node.state_channel = kStateChannel;
   // Every ESDF revision triggers a cycle; no timers run in the composite.
   node.replan_rate = 0;
   node.setpoint_rate = 0;
@@ -336,7 +326,9 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   Loop loop(lcm);
   BenchNode bench(lcm);
   sim::SimNode sim(lcm, simOptions(options, world), world);
-  mapper::MapperNode mapper(lcm, mapperOptions(), static_cast<int64_t>(world.seed) + 1,
+  // The simulator's odometry is in thicket's frames: the bridge only gates it.
+  vio_bridge::VioBridgeNode bridge(lcm, vio_bridge::VioBridgeNodeOptions{}, steadyClockMillis);
+  mapper::MapperNode mapper(lcm, mapper::MapperNodeOptions{}, static_cast<int64_t>(world.seed) + 1,
                             steadyClockMillis);
   const std::unique_ptr<Node> explorer =
       explorerNode(lcm, world, findRow(kMethods, options.method));

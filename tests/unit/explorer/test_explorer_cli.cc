@@ -22,16 +22,9 @@ CliResult explorer(const std::string& args) {
 
 // config/params/explorer.yaml documents every option; it must load and must not fall behind.
 TEST(ExplorerCli, TheShippedParameterFileIsCurrent) {
-  const std::string path = std::string(THICKET_SOURCE_DIR) + "/config/params/explorer.yaml";
-  std::ifstream in(path);
-  std::string header, text;
-  std::getline(in, header);
-  text.assign(std::istreambuf_iterator<char>(in), {});
-  const CliResult result = explorer("params");
-  ASSERT_EQ(result.status, 0);
-  EXPECT_EQ(text, result.output) << "regenerate: (echo '" << header
-                                 << "'; thicket-explorer params) > config/params/explorer.yaml";
-  EXPECT_NO_THROW(loadParams<ExplorerNodeOptions>(path));
+  thicket::testing::expectParamsFileCurrent<ExplorerNodeOptions>(
+      THICKET_EXPLORER, "thicket-explorer",
+      std::string(THICKET_SOURCE_DIR) + "/config/params/explorer.yaml");
 }
 
 TEST(ExplorerCli, RefusesBadConfigurationsWithAMessage) {

@@ -22,17 +22,9 @@ CliResult planner(const std::string& args) {
 
 // config/params/local_planner.yaml documents every option; it must load and must not fall behind.
 TEST(LocalPlannerCli, TheShippedParameterFileIsCurrent) {
-  const std::string path = std::string(THICKET_SOURCE_DIR) + "/config/params/local_planner.yaml";
-  std::ifstream in(path);
-  std::string header, text;
-  std::getline(in, header);
-  text.assign(std::istreambuf_iterator<char>(in), {});
-  const CliResult result = planner("params");
-  ASSERT_EQ(result.status, 0);
-  EXPECT_EQ(text, result.output) << "regenerate: (echo '" << header
-                                 << "'; thicket-local-planner params) > "
-                                    "config/params/local_planner.yaml";
-  EXPECT_NO_THROW(loadParams<LocalPlannerNodeOptions>(path));
+  thicket::testing::expectParamsFileCurrent<LocalPlannerNodeOptions>(
+      THICKET_LOCAL_PLANNER, "thicket-local-planner",
+      std::string(THICKET_SOURCE_DIR) + "/config/params/local_planner.yaml");
 }
 
 TEST(LocalPlannerCli, RefusesBadConfigurationsWithAMessage) {

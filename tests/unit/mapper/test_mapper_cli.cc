@@ -90,16 +90,9 @@ TEST(MapTool, BadArgumentsFailWithAMessage) {
 
 // config/params/mapper.yaml documents every option; it must load and must not fall behind.
 TEST(MapperCli, TheShippedParameterFileIsCurrent) {
-  const std::string path = std::string(THICKET_SOURCE_DIR) + "/config/params/mapper.yaml";
-  std::ifstream in(path);
-  std::string header, text;
-  std::getline(in, header);
-  text.assign(std::istreambuf_iterator<char>(in), {});
-  const CliResult result = thicket::testing::runCommand(std::string(THICKET_MAPPER) + " params");
-  ASSERT_EQ(result.status, 0);
-  EXPECT_EQ(text, result.output) << "regenerate: (echo '" << header
-                                 << "'; thicket-mapper params) > config/params/mapper.yaml";
-  EXPECT_NO_THROW(loadParams<MapperNodeOptions>(path));
+  thicket::testing::expectParamsFileCurrent<MapperNodeOptions>(
+      THICKET_MAPPER, "thicket-mapper",
+      std::string(THICKET_SOURCE_DIR) + "/config/params/mapper.yaml");
   const CliResult bad =
       thicket::testing::runCommand(std::string(THICKET_MAPPER) + " --config /nonexistent.yaml");
   EXPECT_EQ(bad.status, 2);

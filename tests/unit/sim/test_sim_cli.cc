@@ -96,16 +96,8 @@ TEST(SimCli, BadArgumentsFailWithAMessage) {
 
 // config/params/sim.yaml documents every option; it must load and must not fall behind the code.
 TEST(SimCli, TheShippedParameterFileIsCurrent) {
-  const std::string path = std::string(THICKET_SOURCE_DIR) + "/config/params/sim.yaml";
-  std::ifstream in(path);
-  std::string header, text;
-  std::getline(in, header);
-  text.assign(std::istreambuf_iterator<char>(in), {});
-  const CliResult result = run("params");
-  ASSERT_EQ(result.status, 0);
-  EXPECT_EQ(text, result.output) << "regenerate: (echo '" << header
-                                 << "'; thicket-sim params) > config/params/sim.yaml";
-  EXPECT_NO_THROW(loadParams<SimOptions>(path));
+  thicket::testing::expectParamsFileCurrent<SimOptions>(
+      THICKET_SIM, "thicket-sim", std::string(THICKET_SOURCE_DIR) + "/config/params/sim.yaml");
 }
 
 // Without lockstep the simulator steps on its own clock; with no planner the vehicle hovers
