@@ -24,6 +24,7 @@
 #include "local_planner_node.h"
 #include "mapper_node.h"
 #include "sim_node.h"
+#include "stereo_depth_node.h"
 #include "thicket/common/loop.h"
 #include "thicket/common/node.h"
 #include "thicket/common/statistics.h"
@@ -66,6 +67,12 @@ struct GoalFinding {
   const char* finder_method;  // GoalFinderOptions::method
   bool soft_goal;
 };
+// The depth sensors: the simulator's depth camera, or its stereo pair through thicket-stereo-depth.
+struct Sensor {
+  const char* name;
+};
+const Sensor kSensors[] = {{"depth"}, {"stereo"}};
+
 const GoalFinding kGoalFindings[] = {
     {"line", "line", false},
     {"gradient", "gradient", false},
@@ -100,6 +107,9 @@ std::string usage() {
          "  --goal-finding G  " +
          rowNames(kGoalFindings) +
          " (soft: gradient + soft goal; default soft)\n"
+         "  --sensor S        " +
+         rowNames(kSensors) +
+         " (stereo: rendered pairs through thicket-stereo-depth; default depth)\n"
          "  --trials N        number of trials, >= 1\n"
          "  --seed-base B     the seed of trial 0 (default 0)\n"
          "  --replans R       replan limit of a trial (default 60)\n"
@@ -171,6 +181,8 @@ const std::map<std::string, Setter>& setters() {
        [](RunOptions& o, const std::string& v) {
          return setChoice(o.goal_finding, "goal-finding variant", kGoalFindings, v);
        }},
+      {"--sensor", [](RunOptions& o,
+                      const std::string& v) { return setChoice(o.sensor, "sensor", kSensors, v); }},
       {"--trials",
        [](RunOptions& o, const std::string& v) { return setInteger(o.trials, "--trials", v, 1); }},
       {"--seed-base",
@@ -278,7 +290,29 @@ sim::SimOptions simOptions(const RunOptions& options, const sim::World& world) {
   sim.worlds_dir = options.worlds_dir;
   sim.lockstep = true;
   sim.vehicle.replan_limit = options.replans;
+  sim.sensor = options.sensor;
   return sim;
+}
+
+// With the stereo sensor, the depth node for the simulator's pairs: they arrive rectified, so the
+// node takes the rendered camera's intrinsics, baseline and mount.
+std::unique_ptr<Node> stereoDepthNode(lcm::LCM& lcm, const RunOptions& options,
+                                      const sim::SimOptions& sim, const sim::World& world) {
+  if (options.sensor != "stereo") return nullptr;
+  const sim::StereoRenderer renderer(world, sim.stereo_camera);
+  const PinholeCamera camera = renderer.camera();
+  stereo_depth::StereoDepthNodeOptions node;
+  stereo_depth::RectifiedCameraOptions& rectified = node.stereo.rectified;
+  rectified.width = camera.width;
+  rectified.height = camera.height;
+  rectified.fx = camera.fx;
+  rectified.fy = camera.fy;
+  rectified.cx = camera.cx;
+  rectified.cy = camera.cy;
+  rectified.baseline = renderer.baseline();
+  node.camera_position_in_body = sim.stereo_camera.position_in_body;
+  node.camera_pitch_down_deg = sim.stereo_camera.pitch_down_deg;
+  return std::make_unique<stereo_depth::StereoDepthNode>(lcm, node, steadyClockMillis);
 }
 
 local_planner::LocalPlannerNodeOptions plannerOptions(const RunOptions& options,
@@ -325,7 +359,9 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   if (!lcm.good()) throw std::runtime_error("cannot open an LCM on memq://");
   Loop loop(lcm);
   BenchNode bench(lcm);
-  sim::SimNode sim(lcm, simOptions(options, world), world);
+  const sim::SimOptions sim_options = simOptions(options, world);
+  sim::SimNode sim(lcm, sim_options, world);
+  const std::unique_ptr<Node> stereo = stereoDepthNode(lcm, options, sim_options, world);
   // The simulator's odometry is in thicket's frames: the bridge only gates it.
   vio_bridge::VioBridgeNode bridge(lcm, vio_bridge::VioBridgeNodeOptions{}, steadyClockMillis);
   mapper::MapperNode mapper(lcm, mapper::MapperNodeOptions{}, static_cast<int64_t>(world.seed) + 1,
@@ -426,15 +462,25 @@ void writeTrials(const RunOptions& options, const std::string& scenario,
   for (const TrialResult& r : results) {
     for (const auto& [stage, timing] : r.timings) stages.insert(stage);
   }
-  std::vector<std::string> header = {"trial",           "seed",
-                                     "scenario",        "density",
-                                     "method",          "goal_finding",
-                                     "success",         "collision",
-                                     "min_clearance_m", "feasible",
-                                     "num_replans",     "distance_to_goal_m",
-                                     "path_length_m",   "straight_line_m",
-                                     "path_time_s",     "solvable",
-                                     "wall_time_s",     "end_reason"};
+  std::vector<std::string> header = {"trial",
+                                     "seed",
+                                     "scenario",
+                                     "density",
+                                     "method",
+                                     "goal_finding",
+                                     "sensor",
+                                     "success",
+                                     "collision",
+                                     "min_clearance_m",
+                                     "feasible",
+                                     "num_replans",
+                                     "distance_to_goal_m",
+                                     "path_length_m",
+                                     "straight_line_m",
+                                     "path_time_s",
+                                     "solvable",
+                                     "wall_time_s",
+                                     "end_reason"};
   for (const std::string& stage : stages) {
     for (const char* summary : {"median", "p95", "max"}) {
       header.push_back(stage + "_ms_" + summary);
@@ -448,6 +494,7 @@ void writeTrials(const RunOptions& options, const std::string& scenario,
                                       format("%g", options.density),
                                       options.method,
                                       options.goal_finding,
+                                      options.sensor,
                                       flag(r.success),
                                       flag(r.collision),
                                       fixed(r.min_clearance_m),
@@ -541,10 +588,11 @@ void printSummary(const RunOptions& options, const std::string& scenario,
     if (r.success) successful_lengths.push_back(r.path_length_m);
   }
   const int n = static_cast<int>(results.size());
-  std::printf("%s, density %g, method %s, goal finding %s: %d trials, seeds %lld..%lld\n",
-              scenario.c_str(), options.density, options.method.c_str(),
-              options.goal_finding.c_str(), n, static_cast<long long>(options.seed_base),
-              static_cast<long long>(options.seed_base + n - 1));
+  std::printf(
+      "%s, density %g, method %s, goal finding %s, sensor %s: %d trials, seeds %lld..%lld\n",
+      scenario.c_str(), options.density, options.method.c_str(), options.goal_finding.c_str(),
+      options.sensor.c_str(), n, static_cast<long long>(options.seed_base),
+      static_cast<long long>(options.seed_base + n - 1));
   std::printf("success %d/%d, collisions %d, solvable %d/%d (success on solvable %d/%d)\n", success,
               n, collisions, solvable, n, success_on_solvable, solvable);
   if (successful_lengths.empty()) {

@@ -23,6 +23,7 @@ struct RunOptions {
   double density = 0;
   std::string method = "none";        ///< the goal-selection strategy (BENCHMARK.md E2)
   std::string goal_finding = "soft";  ///< "line", "gradient" or "soft" (gradient + soft goal)
+  std::string sensor = "depth";  ///< "depth" (rendered depth) or "stereo" (through stereo_depth)
   int trials = 0;
   int64_t seed_base = 0;
   int replans = 60;  ///< the sim's replan limit

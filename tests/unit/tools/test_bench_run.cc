@@ -89,15 +89,25 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
 
   const Table rows = readCsv(out + "/trials.csv");
   ASSERT_EQ(rows.size(), 3u);
-  const std::vector<std::string> fixed_columns = {"trial",           "seed",
-                                                  "scenario",        "density",
-                                                  "method",          "goal_finding",
-                                                  "success",         "collision",
-                                                  "min_clearance_m", "feasible",
-                                                  "num_replans",     "distance_to_goal_m",
-                                                  "path_length_m",   "straight_line_m",
-                                                  "path_time_s",     "solvable",
-                                                  "wall_time_s",     "end_reason"};
+  const std::vector<std::string> fixed_columns = {"trial",
+                                                  "seed",
+                                                  "scenario",
+                                                  "density",
+                                                  "method",
+                                                  "goal_finding",
+                                                  "sensor",
+                                                  "success",
+                                                  "collision",
+                                                  "min_clearance_m",
+                                                  "feasible",
+                                                  "num_replans",
+                                                  "distance_to_goal_m",
+                                                  "path_length_m",
+                                                  "straight_line_m",
+                                                  "path_time_s",
+                                                  "solvable",
+                                                  "wall_time_s",
+                                                  "end_reason"};
   const std::vector<std::string>& header = rows[0];
   ASSERT_GT(header.size(), fixed_columns.size());
   EXPECT_EQ(std::vector<std::string>(
@@ -122,6 +132,7 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
     EXPECT_EQ(cell["density"], "0.05");
     EXPECT_EQ(cell["method"], "none");
     EXPECT_EQ(cell["goal_finding"], "soft");
+    EXPECT_EQ(cell["sensor"], "depth");
     EXPECT_EQ(cell["collision"], "0");
     // At 0.05 trees per m^2 the planner alone flies both worlds (20 of 20 seeds when written).
     EXPECT_EQ(cell["success"], "1");
