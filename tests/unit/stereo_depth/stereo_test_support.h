@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "forest_flight.h"
 #include "thicket/common/camera.h"
 #include "thicket/common/geometry.h"
 #include "thicket/sim/ground_truth.h"
@@ -17,30 +18,8 @@
 
 namespace thicket::stereo_depth::testing {
 
-/// forest50 at density 0.2, seed 1 (the benchmark world): built once.
-inline const sim::World& forest() {
-  static const sim::World world = [] {
-    auto spec = sim::loadScenario("forest50", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
-    return *sim::generateWorld(*spec, 0.2, 1);
-  }();
-  return world;
-}
-
-/// `count` level poses every `step` m along forest50's start-goal diagonal, facing the goal,
-/// clear of the trees by the robot radius.
-inline std::vector<Pose> flightPoses(double step, size_t count) {
-  const sim::World& world = forest();
-  const sim::GroundTruth truth(world);
-  const Eigen::Vector3d direction = (world.goal - world.start).normalized();
-  std::vector<Pose> poses;
-  for (double s = step; poses.size() < count; s += step) {
-    const Eigen::Vector3d p = world.start + s * direction;
-    if (truth.distance(p) > world.robot_radius) {
-      poses.push_back(Pose::fromYaw(p, std::atan2(direction.y(), direction.x())));
-    }
-  }
-  return poses;
-}
+using bench::flightPoses;
+using bench::forest;
 
 /// The true depth (optical z) [m] that `camera` at world_T_camera sees, by exact ray casting; 0
 /// beyond max_range along the ray.
