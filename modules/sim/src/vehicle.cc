@@ -1,5 +1,6 @@
 #include "thicket/sim/vehicle.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -25,6 +26,8 @@ void VehicleOptions::declare(Params& p) {
     Range::atLeast(0));
   p("v_max", v_max, "speed limit checked on the executed path [m/s]", Range::positive());
   p("a_max", a_max, "acceleration limit checked on the executed path [m/s^2]", Range::positive());
+  p("max_yaw_rate", max_yaw_rate, "the vehicle turns toward the commanded yaw no faster [rad/s]",
+    Range::positive());
 }
 
 const char* outcomeName(Outcome outcome) {
@@ -46,7 +49,7 @@ Vehicle::Vehicle(const GroundTruth& truth, VehicleOptions options, int64_t start
   if (!(options_.replan_period > 0) || !(options_.sample_period > 0) ||
       options_.sample_period > options_.replan_period || options_.replan_limit < 1 ||
       !(options_.goal_tolerance > 0) || !(options_.max_start_lag >= 0) ||
-      !(options_.max_start_lead >= 0)) {
+      !(options_.max_start_lead >= 0) || !(options_.max_yaw_rate > 0)) {
     throw std::invalid_argument("VehicleOptions: periods, limits and tolerances must be positive");
   }
   const World& world = truth_.world();
@@ -73,10 +76,12 @@ std::optional<std::string> Vehicle::commit(const polynomial_trajectory_t& msg) {
     return "trajectory started " + std::to_string(-lead) + " s ago";
   }
   trajectory_ = std::move(*trajectory);
+  yaw_policy_ = msg.yaw_policy;
+  trajectory_yaw_ = msg.yaw;
   return std::nullopt;
 }
 
-PathSample Vehicle::sampleAt(int64_t utime, double previous_yaw) const {
+PathSample Vehicle::sampleAt(int64_t utime, const PathSample& previous) const {
   PathSample sample;
   sample.utime = utime;
   if (trajectory_) {
@@ -87,9 +92,15 @@ PathSample Vehicle::sampleAt(int64_t utime, double previous_yaw) const {
   } else {
     sample.position = hold_position_;
   }
-  sample.yaw = sample.velocity.head<2>().norm() > kYawMinSpeed
-                   ? std::atan2(sample.velocity.y(), sample.velocity.x())
-                   : previous_yaw;
+  double target = previous.yaw;
+  if (trajectory_ && yaw_policy_ == polynomial_trajectory_t::YAW_CONSTANT) {
+    target = trajectory_yaw_;
+  } else if (sample.velocity.head<2>().norm() > kYawMinSpeed) {
+    target = std::atan2(sample.velocity.y(), sample.velocity.x());
+  }
+  const double max_turn = options_.max_yaw_rate * toSeconds(utime - previous.utime);
+  const double turn = std::remainder(target - previous.yaw, 2 * M_PI);
+  sample.yaw = std::remainder(previous.yaw + std::clamp(turn, -max_turn, max_turn), 2 * M_PI);
   sample.clearance = truth_.distance(sample.position);
   return sample;
 }
@@ -105,7 +116,7 @@ StepReport Vehicle::step() {
   for (int64_t i = 1; i <= steps; ++i) {
     const int64_t utime = start + secondsToUtime(options_.replan_period * static_cast<double>(i) /
                                                  static_cast<double>(steps));
-    const PathSample sample = sampleAt(utime, state_.yaw);
+    const PathSample sample = sampleAt(utime, state_);
     path_length_ += (sample.position - state_.position).norm();
     min_clearance_ = std::min(min_clearance_, sample.clearance);
     max_speed_ = std::max(max_speed_, sample.velocity.norm());

@@ -1,8 +1,13 @@
 #include "vio_bridge_node.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
+
+#include <thicket/module_timing_t.hpp>
+
+#include "thicket/common/time.h"
 
 namespace thicket::vio_bridge {
 
@@ -10,6 +15,10 @@ void VioBridgeNodeOptions::declare(Params& p) {
   p.group("bridge", bridge, "frames of the VIO and the gate");
   p("input_channel", input_channel, "the VIO's odometry, in its own frames");
   p("output_channel", output_channel, "the state estimate, in thicket's frames");
+  p("report_period", report_period,
+    "message time between health reports (MODULE_TIMING, and a summary on stderr when "
+    "estimates were dropped or flagged) [s]",
+    Range::positive());
 }
 
 VioBridgeNode::VioBridgeNode(lcm::LCM& lcm, const VioBridgeNodeOptions& options,
@@ -24,6 +33,9 @@ VioBridgeNode::VioBridgeNode(lcm::LCM& lcm, const VioBridgeNodeOptions& options,
   if (options_.input_channel == options_.output_channel) {
     throw std::invalid_argument("vio_bridge: input_channel and output_channel must differ");
   }
+  if (!(options_.report_period > 0) || !std::isfinite(options_.report_period)) {
+    throw std::invalid_argument("vio_bridge: report_period must be positive");
+  }
   // A VIO publishes at a few hundred Hz; a slow start of the loop must not drop estimates.
   subscribe<odometry_t>(
       options_.input_channel,
@@ -36,12 +48,42 @@ void VioBridgeNode::onOdometry(const odometry_t& msg) {
   const double elapsed = now_ms_() - t0;
   total_ms_ += elapsed;
   max_ms_ = std::max(max_ms_, elapsed);
+  ++window_count_;
+  window_ms_ += elapsed;
   if (!result.publish) {
     reportBadMessage(options_.input_channel, result.reason);
-    return;
+  } else {
+    result.estimate.sequence = next_sequence_++;
+    publish(options_.output_channel, result.estimate);
   }
-  result.estimate.sequence = next_sequence_++;
-  publish(options_.output_channel, result.estimate);
+  // Every estimate paces the reports, also one that was dropped: a VIO that only produces
+  // garbage is reported too. A clock that went back starts a new period.
+  const bool due = !reported_ || msg.utime < last_report_utime_ ||
+                   toSeconds(msg.utime - last_report_utime_) >= options_.report_period;
+  if (due) report(msg.utime);
+}
+
+void VioBridgeNode::report(int64_t utime) {
+  module_timing_t timing;
+  timing.utime = utime;
+  timing.module = "vio_bridge";
+  timing.sequence = reports_++;
+  timing.stages = {"gate"};
+  timing.durations_ms = {window_ms_ / static_cast<double>(window_count_)};
+  timing.num_stages = 1;
+  publish("MODULE_TIMING", timing);
+
+  const VioBridgeHealth& health = bridge_.health();
+  int64_t problems = health.dropped;
+  for (int64_t count : health.flagged) problems += count;
+  if (problems != problems_at_report_) {
+    std::fprintf(stderr, "[vio_bridge] %s\n", health.summary().c_str());
+    problems_at_report_ = problems;
+  }
+  reported_ = true;
+  last_report_utime_ = utime;
+  window_count_ = 0;
+  window_ms_ = 0;
 }
 
 std::string VioBridgeNode::summary() const {

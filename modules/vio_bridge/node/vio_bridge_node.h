@@ -1,6 +1,11 @@
 // thicket-vio-bridge as an LCM node: VIO_ODOMETRY (in the VIO's frames) in; STATE_ESTIMATE (in
 // thicket's frames, gated, renumbered) out. Dropped estimates are refused through
 // reportBadMessage with the reason, so they are counted and logged like undecodable ones.
+//
+// Health. Every `report_period` of message time the node publishes MODULE_TIMING (stage "gate":
+// the mean time per estimate since the previous report) and, when estimates were dropped or
+// flagged since then, prints the bridge's health summary to stderr: at most one line per period
+// however fast the VIO publishes.
 #pragma once
 
 #include <functional>
@@ -18,6 +23,7 @@ struct VioBridgeNodeOptions {
   VioBridgeOptions bridge;
   std::string input_channel = "VIO_ODOMETRY";
   std::string output_channel = "STATE_ESTIMATE";
+  double report_period = 1.0;  ///< [s] of message time between health reports
 
   void declare(Params& p);
 };
@@ -35,6 +41,7 @@ class VioBridgeNode : public Node {
 
  private:
   void onOdometry(const odometry_t& msg);
+  void report(int64_t utime);
 
   VioBridgeNodeOptions options_;
   std::function<double()> now_ms_;
@@ -42,6 +49,13 @@ class VioBridgeNode : public Node {
   int64_t next_sequence_ = 0;
   double total_ms_ = 0;
   double max_ms_ = 0;
+  // Since the previous report.
+  bool reported_ = false;
+  int64_t last_report_utime_ = 0;
+  int64_t reports_ = 0;
+  int64_t window_count_ = 0;
+  double window_ms_ = 0;
+  int64_t problems_at_report_ = 0;
 };
 
 }  // namespace thicket::vio_bridge

@@ -150,6 +150,11 @@ void VioBridgeOptions::declare(Params& p) {
     "| |q| - 1 | above this drops the estimate (>= quaternion_tolerance)", Range::between(0, 0.5));
   p("max_gap", max_gap, "a longer gap between estimates makes the next one stale [s]",
     Range::positive());
+  p("clock_reset_after", clock_reset_after,
+    "this many consecutive estimates earlier than the last accepted one, each after the one "
+    "before, mean the VIO's clock was reset: the last starts the new timeline, published lost "
+    "(0: never)",
+    Range::atLeast(0));
   declareAction(p, "on_quaternion_not_unit", on_quaternion_not_unit,
                 "a renormalized quaternion (between the tolerance and the max error)");
   declareAction(p, "on_stale", on_stale, "the first estimate after a gap longer than max_gap");
@@ -194,6 +199,7 @@ std::string VioBridgeHealth::summary() const {
                      std::to_string(published_by_quality[2]) + " lost), " +
                      std::to_string(dropped) + " dropped";
   if (dropped > 0) text += " (" + counts(dropped_by_flag) + ")";
+  if (clock_resets > 0) text += "; clock resets " + std::to_string(clock_resets);
   const std::string flagged_text = counts(flagged);
   if (!flagged_text.empty()) text += "; flagged: " + flagged_text;
   if (!last_reason.empty()) {
@@ -270,6 +276,9 @@ VioBridge::VioBridge(const VioBridgeOptions& options) : options_(options), conve
   positive("max_position_step", options.max_position_step);
   positive("max_angular_rate", options.max_angular_rate);
   positive("max_gap", options.max_gap);
+  if (options.clock_reset_after < 0) {
+    throw std::invalid_argument("vio_bridge: clock_reset_after must be >= 0");
+  }
   non_negative("position_slack", options.position_slack);
   non_negative("orientation_slack", options.orientation_slack);
   non_negative("quaternion_tolerance", options.quaternion_tolerance);
@@ -331,15 +340,29 @@ GateResult VioBridge::process(const odometry_t& vio) {
                       options_.quaternion_tolerance));
   }
 
-  // 3. Time strictly increasing.
+  // 3. Time strictly increasing, unless the clock was reset.
   if (has_reference_ && utime <= reference_.utime) {
-    addProblem(result, odometry_t::FLAG_TIME_BACKWARDS, odometry_t::QUALITY_LOST,
-               (utime == reference_.utime ? "utime " + formatUtime(utime) + " repeats"
-                                          : "utime " + formatUtime(utime) + " is before") +
-                   " the previous estimate's " + formatUtime(reference_.utime));
+    const bool continues_run =
+        utime < reference_.utime && backwards_run_ > 0 && utime > backwards_last_utime_;
+    backwards_run_ = utime < reference_.utime ? (continues_run ? backwards_run_ + 1 : 1) : 0;
+    backwards_last_utime_ = utime;
     health_.last_problem_utime = utime;
-    return drop(odometry_t::FLAG_TIME_BACKWARDS, result);
+    if (options_.clock_reset_after > 0 && backwards_run_ >= options_.clock_reset_after) {
+      addProblem(result, odometry_t::FLAG_TIME_BACKWARDS, odometry_t::QUALITY_LOST,
+                 "clock reset: " + std::to_string(backwards_run_) +
+                     " consecutive estimates before the previous timeline's " +
+                     formatUtime(reference_.utime) + "; re-anchored at " + formatUtime(utime));
+      ++health_.clock_resets;
+      has_reference_ = false;
+    } else {
+      addProblem(result, odometry_t::FLAG_TIME_BACKWARDS, odometry_t::QUALITY_LOST,
+                 (utime == reference_.utime ? "utime " + formatUtime(utime) + " repeats"
+                                            : "utime " + formatUtime(utime) + " is before") +
+                     " the previous estimate's " + formatUtime(reference_.utime));
+      return drop(odometry_t::FLAG_TIME_BACKWARDS, result);
+    }
   }
+  backwards_run_ = 0;
 
   // Accepted: convert, judge against the reference, and make it the next reference.
   result.estimate = conversion_.convert(unit);

@@ -53,6 +53,39 @@ TEST_F(VehicleTest, ExecutesOneReplanPeriodPerStep) {
   EXPECT_NEAR(vehicle.maxSpeed(), 1.0, 1e-12);
 }
 
+TEST_F(VehicleTest, TurnsTowardTheCommandedYawNoFasterThanTheLimit) {
+  VehicleOptions options;
+  options.max_yaw_rate = 2.0;
+  Vehicle vehicle(truth, options);
+  ASSERT_EQ(vehicle.commit(line(0, world.start, Eigen::Vector3d(0.5, 0, 0), 30)), std::nullopt);
+  vehicle.step();
+  vehicle.step();
+  // Flying back: along the velocity means a half turn, which takes pi / 2 s at 2 rad/s.
+  ASSERT_EQ(
+      vehicle.commit(line(2'000'000, vehicle.state().position, Eigen::Vector3d(-0.5, 0, 0), 30)),
+      std::nullopt);
+  vehicle.step();
+  double previous = 0;
+  for (size_t i = 201; i < vehicle.path().size(); ++i) {
+    const double yaw = vehicle.path()[i].yaw;
+    EXPECT_LE(std::abs(std::remainder(yaw - previous, 2 * M_PI)), 2.0 * 0.01 + 1e-12) << i;
+    previous = yaw;
+  }
+  EXPECT_NEAR(std::abs(vehicle.state().yaw), 2.0, 1e-9);  // still turning after 1 s
+  vehicle.step();
+  EXPECT_NEAR(std::abs(vehicle.state().yaw), M_PI, 1e-9);  // then along the velocity
+
+  // A constant-yaw trajectory: the vehicle turns to that yaw whatever its velocity, and holds it.
+  polynomial_trajectory_t constant =
+      line(4'000'000, vehicle.state().position, Eigen::Vector3d(0.5, 0, 0), 30);
+  constant.yaw_policy = polynomial_trajectory_t::YAW_CONSTANT;
+  constant.yaw = M_PI / 2;
+  ASSERT_EQ(vehicle.commit(constant), std::nullopt);
+  vehicle.step();
+  EXPECT_NEAR(vehicle.state().yaw, M_PI / 2, 1e-9);
+  EXPECT_NEAR(vehicle.path()[400 + 50].yaw, M_PI - 1.0, 1e-9);  // halfway through the turn
+}
+
 TEST_F(VehicleTest, ReportsTheFirstSampleInsideTheRobotRadius) {
   world = corridor({{5.0, 5.0, 0.5, 4.0}});
   GroundTruth with_tree(world);

@@ -147,6 +147,50 @@ TEST(Gate, DropsEstimatesWhoseTimeDoesNotAdvance) {
   EXPECT_EQ(bridge.health().dropped_by_flag[bitOf(odometry_t::FLAG_TIME_BACKWARDS)], 2);
 }
 
+TEST(Gate, ReAnchorsOnAClockResetAfterEnoughConsecutiveEarlierEstimates) {
+  VioBridgeOptions options;
+  options.clock_reset_after = 3;
+  VioBridge bridge{options};
+  for (int64_t k = 100; k < 110; ++k) expectGood(bridge.process(estimate(k)));
+  // The VIO restarts: a new timeline from k = 0, far from where the old one ended.
+  EXPECT_FALSE(bridge.process(estimate(0)).publish);
+  EXPECT_FALSE(bridge.process(estimate(1)).publish);
+  GateResult r = bridge.process(estimate(2));
+  ASSERT_TRUE(r.publish) << r.reason;
+  EXPECT_EQ(r.estimate.quality, +odometry_t::QUALITY_LOST);
+  EXPECT_EQ(r.estimate.flags, +odometry_t::FLAG_TIME_BACKWARDS);  // no jump against the old one
+  EXPECT_TRUE(contains(r.reason, "clock reset: 3 consecutive estimates")) << r.reason;
+  EXPECT_TRUE(contains(r.reason, "re-anchored at 1.100000 s")) << r.reason;
+  expectGood(bridge.process(estimate(3)));
+  EXPECT_EQ(bridge.health().clock_resets, 1);
+  EXPECT_EQ(bridge.health().dropped_by_flag[bitOf(odometry_t::FLAG_TIME_BACKWARDS)], 2);
+  EXPECT_TRUE(contains(bridge.health().summary(), "clock resets 1")) << bridge.health().summary();
+}
+
+TEST(Gate, OutOfOrderEstimatesAreNotAClockReset) {
+  VioBridgeOptions options;
+  options.clock_reset_after = 3;
+  VioBridge bridge{options};
+  expectGood(bridge.process(estimate(10)));
+  // Late, shuffled or repeated estimates: never three earlier ones in increasing order.
+  for (int64_t k : {5, 4, 6, 3, 10, 2, 1, 10, 7, 5}) {
+    EXPECT_FALSE(bridge.process(estimate(k)).publish) << k;
+  }
+  // A run broken by an accepted estimate starts again from zero.
+  EXPECT_FALSE(bridge.process(estimate(0)).publish);
+  EXPECT_FALSE(bridge.process(estimate(1)).publish);
+  expectGood(bridge.process(estimate(11)));
+  EXPECT_FALSE(bridge.process(estimate(2)).publish);
+  EXPECT_FALSE(bridge.process(estimate(3)).publish);
+  EXPECT_EQ(bridge.health().clock_resets, 0);
+
+  options.clock_reset_after = 0;  // never re-anchor
+  VioBridge strict{options};
+  expectGood(strict.process(estimate(100)));
+  for (int64_t k = 0; k < 50; ++k) EXPECT_FALSE(strict.process(estimate(k)).publish);
+  EXPECT_EQ(strict.health().clock_resets, 0);
+}
+
 TEST(Gate, FlagsAPositionJumpLostAndReAnchorsOnIt) {
   VioBridge bridge{VioBridgeOptions{}};
   expectGood(bridge.process(estimate(0)));
@@ -308,6 +352,9 @@ TEST(Gate, RefusesInconsistentOptions) {
   EXPECT_THROW(VioBridge{options}, std::invalid_argument);
   options = {};
   options.on_stale = "ignore";
+  EXPECT_THROW(VioBridge{options}, std::invalid_argument);
+  options = {};
+  options.clock_reset_after = -1;
   EXPECT_THROW(VioBridge{options}, std::invalid_argument);
 }
 

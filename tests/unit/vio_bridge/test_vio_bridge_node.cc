@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <thicket/module_timing_t.hpp>
 #include <thicket/odometry_t.hpp>
 
 #include "thicket/common/loop.h"
@@ -80,6 +81,58 @@ TEST(VioBridgeNode, ConvertsRenumbersAndCountsDroppedEstimates) {
   EXPECT_NE(summary.find("gate mean"), std::string::npos) << summary;
 }
 
+class TimingRecorder : public Node {
+ public:
+  explicit TimingRecorder(lcm::LCM& lcm) : Node("timing", lcm) {
+    subscribe<module_timing_t>(
+        "MODULE_TIMING",
+        [this](const module_timing_t& m, const MessageInfo&) { received.push_back(m); });
+  }
+  std::vector<module_timing_t> received;
+};
+
+TEST(VioBridgeNode, ReportsItsHealthOncePerPeriodOfMessageTime) {
+  lcm::LCM lcm{"memq://"};
+  Loop loop{lcm};
+  VioBridgeNodeOptions options;
+  options.report_period = 1.0;
+  double clock = 0;
+  VioBridgeNode bridge{lcm, options, [&clock] { return clock += 0.25; }};  // 0.25 ms per estimate
+  TimingRecorder timing{lcm};
+  Node vio_source{"vio", lcm};
+
+  testing::internal::CaptureStderr();
+  for (int64_t k = 0; k < 60; ++k) vio_source.publish("VIO_ODOMETRY", vio(k));  // 3 s at 20 Hz
+  loop.drain();
+  const std::string quiet = testing::internal::GetCapturedStderr();
+  // Reports at 0, 1 and 2 s of message time; a healthy stream prints nothing.
+  ASSERT_EQ(timing.received.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    const module_timing_t& t = timing.received[i];
+    EXPECT_EQ(t.module, "vio_bridge");
+    EXPECT_EQ(t.sequence, static_cast<int64_t>(i));
+    EXPECT_EQ(t.utime, vio(static_cast<int64_t>(20 * i)).utime);
+    ASSERT_EQ(t.num_stages, 1);
+    EXPECT_EQ(t.stages[0], "gate");
+    EXPECT_DOUBLE_EQ(t.durations_ms[0], 0.25);
+  }
+  EXPECT_EQ(quiet, "");
+
+  // Jumps every estimate for a second: one health line at the next report, not one per estimate.
+  testing::internal::CaptureStderr();
+  for (int64_t k = 60; k < 81; ++k) {
+    vio_source.publish("VIO_ODOMETRY", vio(k, k % 2 == 0 ? 0.0 : 3.0));
+  }
+  loop.drain();
+  const std::string noisy = testing::internal::GetCapturedStderr();
+  ASSERT_EQ(timing.received.size(), 5u);  // at 3 and 4 s
+  size_t lines = 0;
+  for (char c : noisy) lines += c == '\n' ? 1 : 0;
+  EXPECT_EQ(lines, 1u) << noisy;  // at 4 s, for the 20 jumps since the report at 3 s
+  EXPECT_NE(noisy.find("[vio_bridge] "), std::string::npos) << noisy;
+  EXPECT_NE(noisy.find("flagged: position_jump"), std::string::npos) << noisy;
+}
+
 TEST(VioBridgeNode, UsesTheConfiguredChannels) {
   lcm::LCM lcm{"memq://"};
   Loop loop{lcm};
@@ -106,6 +159,9 @@ TEST(VioBridgeNode, RefusesBadOptions) {
   EXPECT_THROW(VioBridgeNode(lcm, options), std::invalid_argument);
   options = {};
   options.bridge.body_in_vio_body.orientation = {0, 0, 0, 0};
+  EXPECT_THROW(VioBridgeNode(lcm, options), std::invalid_argument);
+  options = {};
+  options.report_period = 0;
   EXPECT_THROW(VioBridgeNode(lcm, options), std::invalid_argument);
 }
 

@@ -26,6 +26,7 @@ struct VehicleOptions {
   double max_start_lead = 0.05;  // ... and at most this long after now [s]
   double v_max = 1.0;            // limits checked on the executed path (+0.01 slack) [m/s]
   double a_max = 2.0;            // [m/s^2]
+  double max_yaw_rate = 3.0;     // the attitude controller turns no faster than this [rad/s]
 
   void declare(Params& p);
 };
@@ -61,8 +62,9 @@ class Vehicle {
   std::optional<std::string> commit(const polynomial_trajectory_t& msg);
 
   /// Executes one replan period of the committed trajectory (holding position when there is
-  /// none, and at rest at its end after it ends) and advances the cycle count. Yaw follows the
-  /// velocity and is held when the vehicle is (nearly) at rest.
+  /// none, and at rest at its end after it ends) and advances the cycle count. Yaw turns toward
+  /// the trajectory's yaw (YAW_CONSTANT) or its velocity (YAW_ALONG_VELOCITY, held when nearly at
+  /// rest), no faster than max_yaw_rate, as a real attitude controller would.
   StepReport step();
 
   int64_t utime() const { return utime_; }
@@ -81,11 +83,13 @@ class Vehicle {
   const std::vector<PathSample>& path() const { return path_; }
 
  private:
-  PathSample sampleAt(int64_t utime, double previous_yaw) const;
+  PathSample sampleAt(int64_t utime, const PathSample& previous) const;
 
   const GroundTruth& truth_;
   VehicleOptions options_;
   std::optional<PolynomialTrajectory> trajectory_;
+  int8_t yaw_policy_ = polynomial_trajectory_t::YAW_ALONG_VELOCITY;
+  double trajectory_yaw_ = 0;  ///< with YAW_CONSTANT
   Eigen::Vector3d hold_position_;
   int64_t utime_;
   int cycle_ = 0;

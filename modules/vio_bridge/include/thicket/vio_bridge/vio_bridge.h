@@ -16,7 +16,8 @@
 //   1. any non-finite number → dropped (FLAG_NOT_FINITE);
 //   2. |‖q‖ − 1| beyond quaternion_max_error → dropped; beyond quaternion_tolerance →
 //      renormalized and flagged (FLAG_QUATERNION_NOT_UNIT, QUALITY_DEGRADED);
-//   3. utime not after the previous accepted estimate → dropped (FLAG_TIME_BACKWARDS);
+//   3. utime not after the previous accepted estimate → dropped (FLAG_TIME_BACKWARDS), unless
+//      it completes a clock reset (below);
 //   4. more than max_gap since the previous accepted estimate → FLAG_STALE, QUALITY_DEGRADED;
 //   5. a step beyond the position or orientation bounds → FLAG_POSITION_JUMP /
 //      FLAG_ORIENTATION_JUMP, QUALITY_LOST;
@@ -31,6 +32,13 @@
 // jumped: a VIO that resets jumps once, is flagged once, and is trusted again from the next
 // consistent estimate. A jump or stale gap that was dropped is not hidden: its flags, its
 // QUALITY and its reason are carried onto the next published estimate.
+//
+// Clock resets. A VIO that restarts, or a log that loops, starts a new timeline earlier than the
+// reference, and a gate that only compared with the reference would drop it forever. When
+// `clock_reset_after` consecutive estimates are all earlier than the reference and each is after
+// the one before, the last of them starts the new timeline: it becomes the reference without being
+// judged against the old one and is published LOST with FLAG_TIME_BACKWARDS and a reason saying
+// the clock was reset; the next consistent estimate is GOOD again.
 #pragma once
 
 #include <array>
@@ -81,6 +89,9 @@ struct VioBridgeOptions {
   double quaternion_max_error = 0.05;
   /// A gap between consecutive accepted estimates longer than this makes the stream stale [s].
   double max_gap = 0.5;
+  /// This many consecutive estimates earlier than the reference, each after the one before, are a
+  /// clock reset (see the file comment); 0 never re-anchors.
+  int clock_reset_after = 10;
 
   /// "flag" (publish with the flag) or "drop", for each kind that can be published.
   std::string on_quaternion_not_unit = "flag";
@@ -156,11 +167,12 @@ struct VioBridgeHealth {
   std::array<int64_t, kNumFlags> flagged{};
   /// Dropped estimates by the flag that dropped them (the first of the gate order).
   std::array<int64_t, kNumFlags> dropped_by_flag{};
-  std::string last_reason;  ///< of the latest estimate that was not GOOD, or "" if none
+  int64_t clock_resets = 0;  ///< new timelines started (see the file comment)
+  std::string last_reason;   ///< of the latest estimate that was not GOOD, or "" if none
   int64_t last_problem_utime = 0;
 
   /// One line: "N in, P published (G good, D degraded, L lost), X dropped (not_finite 1, ...);
-  /// flagged: stale 1, ...; last problem: ...".
+  /// clock resets R; flagged: stale 1, ...; last problem: ..." (zero counts left out).
   std::string summary() const;
 };
 
@@ -194,6 +206,9 @@ class VioBridge {
   bool has_reference_ = false;
   Reference reference_;
   Carried carried_;
+  /// The current run of estimates earlier than the reference and increasing among themselves.
+  int backwards_run_ = 0;
+  int64_t backwards_last_utime_ = 0;
   VioBridgeHealth health_;
 };
 
