@@ -32,8 +32,9 @@ void StereoMatcherOptions::declare(Params& p) {
     "largest disparity step within one connected region for speckle filtering [pixels]",
     Range::atLeast(0));
   p.choice("mode", mode, {"sgbm", "hh", "3way"},
-           "OpenCV SGBM variant: sgbm (5 directions), hh (8 directions, full image), 3way "
-           "(faster)");
+           "OpenCV SGBM variant: 3way (3 directions, about half the time of sgbm for the same "
+           "depth within 5 m), sgbm (5 directions, a few % more valid pixels far away), hh (8 "
+           "directions, full image, slowest)");
   p("min_range", min_range, "depths below this are dropped [m]", Range::atLeast(0));
   p("max_range", max_range, "depths above this are dropped [m]", Range::positive());
 }
@@ -59,6 +60,10 @@ Expected<StereoMatcherOptions> StereoMatcherOptions::validated() const {
     return unexpected("the range limits must satisfy 0 <= min_range < max_range < inf");
   }
   return *this;
+}
+
+int StereoMatcherOptions::minImageWidth() const {
+  return std::max(min_disparity, 0) + num_disparities + block_size;
 }
 
 struct StereoMatcher::Impl {
@@ -90,6 +95,9 @@ std::vector<float> StereoMatcher::disparity(const GrayImage& left, const GrayIma
       left.pixels.size() != static_cast<size_t>(left.width) * left.height ||
       right.pixels.size() != left.pixels.size()) {
     throw std::invalid_argument("StereoMatcher::disparity: empty images or different sizes");
+  }
+  if (left.width < options_.minImageWidth()) {
+    throw std::invalid_argument("StereoMatcher::disparity: images narrower than the search");
   }
   const cv::Mat l(left.height, left.width, CV_8UC1, const_cast<uint8_t*>(left.pixels.data()));
   const cv::Mat r(right.height, right.width, CV_8UC1, const_cast<uint8_t*>(right.pixels.data()));

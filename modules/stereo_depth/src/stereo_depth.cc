@@ -55,6 +55,19 @@ Expected<StereoDepth> StereoDepth::create(const StereoDepthOptions& options) {
   return create(options, std::move(calibration));
 }
 
+namespace {
+
+// Why images `width` pixels wide cannot hold the matcher's search, or "".
+std::string tooNarrow(int width, const StereoMatcherOptions& matcher) {
+  if (width >= matcher.minImageWidth()) return {};
+  return "images are " + std::to_string(width) + " pixels wide, narrower than the " +
+         std::to_string(matcher.minImageWidth()) +
+         " the disparity search needs (num_disparities + min_disparity + block_size): lower "
+         "matcher.num_disparities";
+}
+
+}  // namespace
+
 Expected<StereoDepth> StereoDepth::create(const StereoDepthOptions& options,
                                           std::optional<StereoCalibration> calibration) {
   auto matcher_options = options.matcher.validated();
@@ -63,6 +76,10 @@ Expected<StereoDepth> StereoDepth::create(const StereoDepthOptions& options,
   if (calibration) {
     auto created = Rectifier::create(*calibration, options.rectify_alpha);
     if (!created) return unexpected(created.error());
+    if (const std::string narrow = tooNarrow(calibration->width, options.matcher);
+        !narrow.empty()) {
+      return unexpected("the calibration's " + narrow);
+    }
     rectifier = std::move(*created);
   }
   return StereoDepth(options, std::move(rectifier), StereoMatcher(options.matcher));
@@ -121,6 +138,9 @@ Expected<StereoFrame> StereoDepth::process(const StereoPair& pair,
     frame.camera.cy = r.cy >= 0 ? r.cy : (height - 1) / 2.0;
     frame.baseline = r.baseline;
     frame.has_depth = r.fx > 0 && r.baseline > 0;
+  }
+  if (const std::string narrow = tooNarrow(width, options_.matcher); !narrow.empty()) {
+    return unexpected("the pair's " + narrow);
   }
   if (frame.left_rectified.pixels.empty()) frame.left_rectified = pair.left;
   const double t1 = now();

@@ -266,7 +266,14 @@ TEST(PairDecoding, RawWithPaddingColourPngAndJpeg) {
 }
 
 TEST(PipelineRefusals, PairsThatDoNotFitTheCalibration) {
-  auto pipeline = StereoDepth::create(StereoDepthOptions{}, goodCalibration());
+  // 64 pixels are too narrow for the default search (64 disparities and a 5-pixel block).
+  auto narrow = StereoDepth::create(StereoDepthOptions{}, goodCalibration());
+  ASSERT_FALSE(narrow);
+  EXPECT_NE(narrow.error().find("64 pixels wide, narrower than the 69"), std::string::npos)
+      << narrow.error();
+  StereoDepthOptions fits;
+  fits.matcher.num_disparities = 16;
+  auto pipeline = StereoDepth::create(fits, goodCalibration());
   ASSERT_TRUE(pipeline) << pipeline.error();
   auto pair = decodeStereoPair(pairMessage());
   ASSERT_TRUE(pair);
@@ -289,7 +296,7 @@ TEST(PipelineRefusals, PairsThatDoNotFitTheCalibration) {
 
   // Without a calibration: unrectified pairs are refused; rectified ones must fit the
   // configured size, and give depth only with intrinsics.
-  StereoDepthOptions options;
+  StereoDepthOptions options = fits;
   options.rectified.width = 64;
   options.rectified.height = 48;
   auto bare = StereoDepth::create(options);
@@ -306,6 +313,12 @@ TEST(PipelineRefusals, PairsThatDoNotFitTheCalibration) {
   r = bare->process(rectified);
   ASSERT_TRUE(r) << r.error();
   EXPECT_FALSE(r->has_depth);
+  // Rectified pairs of any size are checked against the search when they arrive.
+  auto any_size = StereoDepth::create(StereoDepthOptions{});
+  ASSERT_TRUE(any_size) << any_size.error();
+  r = any_size->process(rectified);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("the pair's images are 64 pixels wide"), std::string::npos) << r.error();
 }
 
 TEST(Files, PfmAndDepthPngRoundTrip) {

@@ -23,7 +23,7 @@ struct StereoMatcherOptions {
   int pre_filter_cap = 63;        ///< clip of the prefiltered image derivatives
   int speckle_window_size = 100;  ///< speckles smaller than this are removed [pixels]; 0: off
   int speckle_range = 2;          ///< disparity variation within one component [pixels]
-  std::string mode = "sgbm";      ///< sgbm, hh (full 2-pass), 3way
+  std::string mode = "3way";      ///< 3way, sgbm (5 directions), hh (full 2-pass)
   double min_range = 0.2;         ///< depths below are dropped [m]
   double max_range = 20.0;        ///< depths above are dropped [m]
 
@@ -31,6 +31,8 @@ struct StereoMatcherOptions {
   /// These options, or what is inconsistent (num_disparities not a multiple of 16, even block,
   /// p2 <= p1, max_range <= min_range, ...).
   Expected<StereoMatcherOptions> validated() const;
+  /// The narrowest image the search fits in: a full search range plus a block beside it.
+  int minImageWidth() const;
 };
 
 class StereoMatcher {
@@ -44,7 +46,8 @@ class StereoMatcher {
   const StereoMatcherOptions& options() const { return options_; }
 
   /// The disparity of every left pixel [pixels], row-major; 0 where there is no valid match.
-  /// Throws std::invalid_argument when the images are empty or of different sizes.
+  /// Throws std::invalid_argument when the images are empty, of different sizes or narrower than
+  /// options().minImageWidth().
   std::vector<float> disparity(const GrayImage& left, const GrayImage& right) const;
 
  private:
