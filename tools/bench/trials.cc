@@ -256,20 +256,6 @@ class BenchNode : public Node {
         1000);
   }
 
-  void sendMissionGoal(const Eigen::Vector3d& goal) {
-    goal_t msg{};
-    msg.utime = 0;
-    msg.goal_id = 1;
-    msg.source = goal_t::SOURCE_OPERATOR;
-    msg.cycle = -1;
-    msg.status = goal_t::STATUS_OK;
-    msg.yaw_policy = goal_t::YAW_ALONG_VELOCITY;
-    msg.waypoints = {{goal.x(), goal.y(), goal.z()}};
-    msg.yaws = {0.0};
-    msg.num_waypoints = 1;
-    publish("MISSION_GOAL", msg);
-  }
-
   std::map<std::string, StageTiming> timings() const {
     std::map<std::string, StageTiming> timings;
     for (const auto& [stage, ms] : durations_ms_) {
@@ -372,9 +358,6 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
                                           steadyClockMillis);
   const std::unique_ptr<Node> observer_node = observer ? observer(lcm) : nullptr;
 
-  // The planner holds the goal before the first frame arrives.
-  bench.sendMissionGoal(world.goal);
-  loop.drain();
   sim.start();
   // In lockstep every frame is answered within the same drain; an idle graph with the mission
   // still open means the planner never closed the frame.

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include <thicket/goal_t.hpp>
 #include <thicket/odometry_t.hpp>
 #include <thicket/sim_world_t.hpp>
 #include <thicket/stereo_image_t.hpp>
@@ -92,6 +93,18 @@ void SimNode::start() {
   }
   msg.num_cylinders = static_cast<int32_t>(world_.cylinders.size());
   publish("SIM_WORLD", msg);
+  // The simulated operator: the world's goal is the mission.
+  goal_t goal{};
+  goal.utime = vehicle_.utime();
+  goal.goal_id = 1;
+  goal.source = goal_t::SOURCE_OPERATOR;
+  goal.cycle = -1;
+  goal.status = goal_t::STATUS_OK;
+  goal.yaw_policy = goal_t::YAW_ALONG_VELOCITY;
+  goal.waypoints = {{world_.goal.x(), world_.goal.y(), world_.goal.z()}};
+  goal.yaws = {0.0};
+  goal.num_waypoints = 1;
+  publish("MISSION_GOAL", goal);
   publishEvent(sim_event_t::TYPE_TRIAL_START,
                "scenario " + world_.scenario + ", density " + std::to_string(world_.density) +
                    ", seed " + std::to_string(world_.seed) + ", " +

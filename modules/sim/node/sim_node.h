@@ -42,7 +42,8 @@ class SimNode : public Node {
  public:
   SimNode(lcm::LCM& lcm, const SimOptions& options, World world);
 
-  /// Publishes the world, the trial start and the first frame.
+  /// Publishes the world, the mission goal (the world's goal, on MISSION_GOAL as the operator),
+  /// the trial start and the first frame.
   void start();
   /// Executes one replan period and publishes the next frame, or the trial end. Called by the
   /// planner's final status in lockstep, by a timer otherwise.
