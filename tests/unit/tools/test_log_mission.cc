@@ -1,0 +1,99 @@
+// thicket-log mission: the outcome of a simulated mission from hand-made logs of the simulator's
+// events, and the exit status the demo relies on.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+
+#include <thicket/goal_t.hpp>
+#include <thicket/sim_event_t.hpp>
+
+#include "cli.h"
+#include "mission.h"
+#include "thicket/common/lcm_log.h"
+
+namespace thicket::log {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string tempLog(const std::string& name) {
+  return (fs::path(::testing::TempDir()) /
+          ("thicket_mission_" + std::to_string(::getpid()) + "_" + name + ".lcm"))
+      .string();
+}
+
+sim_event_t event(int8_t type, int8_t outcome = sim_event_t::OUTCOME_NONE) {
+  sim_event_t e{};
+  e.type = type;
+  e.outcome = outcome;
+  e.message = outcome == sim_event_t::OUTCOME_GOAL_REACHED ? "goal reached" : "replan limit";
+  e.num_replans = 26;
+  e.path_length = 13.69;
+  e.path_time = 26.0;
+  e.min_clearance = 0.71;
+  e.distance_to_goal = 0.05;
+  return e;
+}
+
+goal_t explorerGoal(int8_t status) {
+  goal_t g{};
+  g.source = goal_t::SOURCE_EXPLORER;
+  g.status = status;
+  return g;
+}
+
+// A mission with two explorer answers (one without a candidate) and the given events.
+std::string writeMission(const std::string& name, const std::vector<sim_event_t>& events) {
+  const std::string path = tempLog(name);
+  LogWriter writer(path);
+  writer.write(1'000, "SIM_EVENT", event(sim_event_t::TYPE_TRIAL_START));
+  writer.write(2'000, "EXPLORER_GOAL", explorerGoal(goal_t::STATUS_OK));
+  writer.write(3'000, "EXPLORER_GOAL", explorerGoal(goal_t::STATUS_NO_CANDIDATE));
+  int64_t t = 4'000;
+  for (const sim_event_t& e : events) writer.write(t++, "SIM_EVENT", e);
+  return path;
+}
+
+TEST(LogMission, AGoalReachedWithoutCollisionSucceeds) {
+  const std::string path =
+      writeMission("ok", {event(sim_event_t::TYPE_TRIAL_END, sim_event_t::OUTCOME_GOAL_REACHED)});
+  const auto report = missionReport(path);
+  ASSERT_TRUE(report) << report.error();
+  EXPECT_TRUE(report->success());
+  EXPECT_EQ(report->num_replans, 26);
+  EXPECT_EQ(report->explorer_goals, 1);
+  EXPECT_EQ(report->text(),
+            "goal reached after 26 replans and 26.0 s: path 13.69 m, 0.05 m from the goal, min "
+            "clearance 0.710 m, 0 collisions, 0 refused trajectories, 1 intermediate goals from "
+            "the explorer");
+  const auto cli = testing::runCommand(std::string(THICKET_LOG) + " mission " + path);
+  EXPECT_EQ(cli.status, 0) << cli.output;
+  EXPECT_NE(cli.output.find("mission: goal reached after 26 replans"), std::string::npos)
+      << cli.output;
+  fs::remove(path);
+}
+
+TEST(LogMission, ACollisionOrAnotherEndOrNoEndFails) {
+  const std::string collided = writeMission(
+      "collided", {event(sim_event_t::TYPE_COLLISION),
+                   event(sim_event_t::TYPE_TRIAL_END, sim_event_t::OUTCOME_GOAL_REACHED)});
+  const std::string limit = writeMission(
+      "limit", {event(sim_event_t::TYPE_TRIAL_END, sim_event_t::OUTCOME_REPLAN_LIMIT)});
+  const std::string unended = writeMission("unended", {});
+  for (const std::string& path : {collided, limit, unended}) {
+    const auto report = missionReport(path);
+    ASSERT_TRUE(report) << report.error();
+    EXPECT_FALSE(report->success()) << path;
+    EXPECT_EQ(testing::runCommand(std::string(THICKET_LOG) + " mission " + path).status, 1) << path;
+  }
+  EXPECT_EQ(missionReport(collided)->collisions, 1);
+  EXPECT_FALSE(missionReport(limit)->goal_reached);
+  EXPECT_NE(missionReport(unended)->text().find("did not end"), std::string::npos);
+  EXPECT_EQ(testing::runCommand(std::string(THICKET_LOG) + " mission /nonexistent.lcm").status, 2);
+  for (const std::string& path : {collided, limit, unended}) fs::remove(path);
+}
+
+}  // namespace
+}  // namespace thicket::log

@@ -1,0 +1,369 @@
+// thicket-log plot: a hand-made mission log (two cylinders, a path, goals, a collision and an ESDF
+// built from a snapshot and deltas logged out of revision order) drawn to a PNG whose pixels are
+// checked by colour class; missing channels, nothing to draw, bad arguments.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <procman_lcm/deputy_info_t.hpp>
+#include <thicket/goal_t.hpp>
+#include <thicket/odometry_t.hpp>
+#include <thicket/sim_event_t.hpp>
+#include <thicket/sim_world_t.hpp>
+
+#include "cli.h"
+#include "plot.h"
+#include "thicket/common/lcm_log.h"
+#include "thicket/common/map_update.h"
+
+namespace thicket::log {
+namespace {
+
+namespace fs = std::filesystem;
+using thicket::testing::CliResult;
+using thicket::testing::runCommand;
+
+CliResult run(const std::string& args) {
+  return runCommand(std::string(THICKET_LOG) + " " + args);
+}
+
+constexpr double kVoxel = 0.2;
+constexpr double kHeight = 1.5;  // flown height: the map band is 1.0 .. 2.0 m
+
+sim_world_t makeWorld() {
+  sim_world_t world{};
+  world.scenario = "hand-made";
+  world.bounds_max[0] = 10;
+  world.bounds_max[1] = 8;
+  world.bounds_max[2] = 4;
+  world.start[0] = 1, world.start[1] = 4, world.start[2] = kHeight;
+  world.goal[0] = 9, world.goal[1] = 4, world.goal[2] = kHeight;
+  world.robot_radius = 0.5;
+  world.num_cylinders = 2;
+  world.cylinder_x = {3.0, 7.0};
+  world.cylinder_y = {4.0, 2.0};
+  world.cylinder_radius = {0.5, 0.4};
+  world.cylinder_height = {4.0, 4.0};
+  return world;
+}
+
+// The flown path: (1, 4) → (2, 6) → (8, 6) → (9, 4), sampled every 0.1 m.
+std::vector<Eigen::Vector3d> flownPath() {
+  const std::vector<Eigen::Vector3d> corners = {
+      {1, 4, kHeight}, {2, 6, kHeight}, {8, 6, kHeight}, {9, 4, kHeight}};
+  std::vector<Eigen::Vector3d> path;
+  for (size_t i = 0; i + 1 < corners.size(); ++i) {
+    const int steps = static_cast<int>(std::ceil((corners[i + 1] - corners[i]).norm() / 0.1));
+    for (int s = 0; s < steps; ++s) {
+      path.push_back(corners[i] + (corners[i + 1] - corners[i]) * s / steps);
+    }
+  }
+  path.push_back(corners.back());
+  return path;
+}
+
+goal_t makeGoal(const Eigen::Vector3d& p, int8_t source) {
+  goal_t goal{};
+  goal.source = source;
+  goal.status = goal_t::STATUS_OK;
+  goal.num_waypoints = 1;
+  goal.waypoints = {{p.x(), p.y(), p.z()}};
+  goal.yaws = {0};
+  return goal;
+}
+
+// Every voxel of block (bx, by, 0) observed free, 1 m from anything.
+void addFreeBlock(EsdfLayer& layer, int bx, int by) {
+  Block<EsdfVoxel>& block = layer.allocateBlock(BlockIndex(bx, by, 0));
+  for (EsdfVoxel& v : block.voxels) v = EsdfVoxel{1.0f, true, false};
+}
+
+// A vertical run of observed voxels at distance 0 through the band, at the voxel holding (x, y).
+void addOccupiedColumn(EsdfLayer& layer, double x, double y) {
+  for (double z = 1.1; z < 2.0; z += kVoxel) {
+    *layer.voxel(layer.voxelIndex({x, y, z})) = EsdfVoxel{0.0f, true, true};
+  }
+}
+
+// Where the ESDF ends up (in revision order), with voxel centres as the probe points:
+//  - (1.1, 5.1) occupied at revision 1, free again at revision 2;
+//  - (2.1, 3.5) occupied from revision 2;
+//  - (2.5, 4.5) occupied only at z = 0.1, below the band: drawn free;
+//  - block (2, 0, 0) (x 6.4 .. 9.6, y 0 .. 3.2) free at revision 0, removed at revision 2.
+// Revision 2 is logged before revision 1: drawing in file order would get the first two wrong.
+void writeMap(LogWriter& writer, int64_t t) {
+  EsdfLayer layer(kVoxel);
+  addFreeBlock(layer, 0, 1);
+  addFreeBlock(layer, 2, 0);
+  const auto snapshot = encodeMapUpdate(layer, {t, 7, 0, true}, {}, {});
+
+  addOccupiedColumn(layer, 1.1, 5.1);
+  const auto revision1 = encodeMapUpdate(layer, {t + 1, 7, 1, false}, {BlockIndex(0, 1, 0)}, {});
+
+  addFreeBlock(layer, 0, 1);
+  addOccupiedColumn(layer, 2.1, 3.5);
+  *layer.voxel(layer.voxelIndex({2.5, 4.5, 0.1})) = EsdfVoxel{0.0f, true, true};
+  layer.removeBlock(BlockIndex(2, 0, 0));
+  const auto revision2 =
+      encodeMapUpdate(layer, {t + 2, 7, 2, false}, {BlockIndex(0, 1, 0)}, {BlockIndex(2, 0, 0)});
+  for (const auto* messages : {&snapshot, &revision2, &revision1}) {
+    for (const map_update_t& msg : *messages) writer.write(t, "MAP_ESDF", msg);
+  }
+}
+
+struct Channels {
+  bool world = true, truth = true, goal = true, explorer = true, event = true, map = true;
+};
+
+void writeMission(const std::string& path, const Channels& channels = {}) {
+  LogWriter writer(path);
+  int64_t t = 1'000'000;
+  if (channels.world) writer.write(t, "SIM_WORLD", makeWorld());
+  if (channels.goal) {
+    writer.write(t, "MISSION_GOAL", makeGoal({9, 4, kHeight}, goal_t::SOURCE_OPERATOR));
+  }
+  if (channels.explorer) {
+    writer.write(t, "EXPLORER_GOAL", makeGoal({5, 6.5, kHeight}, goal_t::SOURCE_EXPLORER));
+  }
+  if (channels.truth) {
+    int64_t sequence = 0;
+    for (const Eigen::Vector3d& p : flownPath()) {
+      odometry_t odometry{};
+      odometry.utime = t += 100'000;
+      odometry.sequence = sequence++;
+      odometry.position[0] = p.x(), odometry.position[1] = p.y(), odometry.position[2] = p.z();
+      odometry.orientation[0] = 1;
+      writer.write(t, "SIM_TRUTH", odometry);
+    }
+  }
+  if (channels.event) {
+    sim_event_t event{};
+    event.utime = t;
+    event.type = sim_event_t::TYPE_COLLISION;
+    event.position[0] = 6, event.position[1] = 1, event.position[2] = kHeight;
+    writer.write(t, "SIM_EVENT", event);
+    event.type = sim_event_t::TYPE_TRIAL_END;  // not a collision: not drawn
+    event.position[0] = 4;
+    writer.write(t, "SIM_EVENT", event);
+  }
+  if (channels.map) writeMap(writer, t);
+}
+
+// The palette colour nearest to a pixel.
+std::string colourClass(const cv::Mat& image, const PlotFrame& frame, double x, double y) {
+  const int column = static_cast<int>(std::floor(frame.column(x)));
+  const int row = static_cast<int>(std::floor(frame.row(y)));
+  if (column < 0 || row < 0 || column >= image.cols || row >= image.rows) return "outside";
+  const cv::Vec3b bgr = image.at<cv::Vec3b>(row, column);
+  const std::vector<std::pair<std::string, Rgb>> palette = {
+      {"unknown", colors::kUnknown},    {"free", colors::kFree},
+      {"occupied", colors::kOccupied},  {"obstacle", colors::kObstacle},
+      {"path", colors::kPath},          {"start", colors::kStart},
+      {"goal", colors::kGoal},          {"explorer goal", colors::kExplorerGoal},
+      {"collision", colors::kCollision}};
+  std::string best;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (const auto& [name, c] : palette) {
+    const double distance = std::hypot(bgr[2] - c.r, bgr[1] - c.g, bgr[0] - c.b);
+    if (distance < best_distance) best = name, best_distance = distance;
+  }
+  return best;
+}
+
+// Each test writes into a fresh directory of its own, removed when it ends.
+class LogPlot : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(::testing::TempDir()) /
+           ("thicket_log_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string tempPath(const std::string& name) const { return (dir_ / name).string(); }
+
+ private:
+  fs::path dir_;
+};
+
+TEST_F(LogPlot, DrawsWorldMapPathGoalsAndCollisions) {
+  const std::string log_path = tempPath("mission.lcm");
+  const std::string png = tempPath("top.png");
+  writeMission(log_path);
+  PlotOptions options;
+  options.out = png;
+  options.size = 640;
+  const auto result = plotLog(log_path, options);
+  ASSERT_TRUE(result) << result.error();
+  EXPECT_EQ(result->map_layer, "MAP_ESDF");
+  EXPECT_EQ(result->map_revision, 2);
+  EXPECT_DOUBLE_EQ(result->z_min, kHeight - 0.5);
+  EXPECT_DOUBLE_EQ(result->z_max, kHeight + 0.5);
+  EXPECT_TRUE(result->notes.empty()) << result->notes.front();
+
+  const cv::Mat image = cv::imread(png, cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  EXPECT_EQ(image.cols, 640);
+  EXPECT_EQ(image.rows, 640);
+  const PlotFrame& frame = result->frame;
+  // The world's 10 m fit the width less the margins.
+  EXPECT_GT(frame.pixels_per_metre, 50);
+  EXPECT_LT(frame.pixels_per_metre * 10, 640);
+
+  const auto at = [&](double x, double y) { return colourClass(image, frame, x, y); };
+  EXPECT_EQ(at(3.0, 4.0), "obstacle");  // cylinder centres
+  EXPECT_EQ(at(7.0, 2.0), "obstacle");
+  EXPECT_EQ(at(3.0, 4.45), "obstacle");  // inside the first cylinder's edge
+  EXPECT_EQ(at(3.0, 4.65), "free");      // just outside it
+  EXPECT_EQ(at(4.0, 6.0), "path");       // on the flown path
+  EXPECT_EQ(at(8.5, 5.0), "path");
+  EXPECT_EQ(at(1.0, 4.0), "start");
+  EXPECT_EQ(at(9.0, 4.0), "goal");
+  EXPECT_EQ(at(5.0, 6.5), "explorer goal");
+  EXPECT_EQ(at(6.0, 1.0), "collision");
+  EXPECT_EQ(at(4.0, 1.0), "unknown");   // the trial end is no collision
+  EXPECT_EQ(at(1.1, 5.1), "free");      // revision 2 cleared it, though logged first
+  EXPECT_EQ(at(2.1, 3.5), "occupied");  // revision 2's obstacle
+  EXPECT_EQ(at(2.5, 4.5), "free");      // occupied only below the band
+  EXPECT_EQ(at(0.5, 3.5), "free");      // the snapshot's free block
+  EXPECT_EQ(at(8.0, 1.0), "unknown");   // a block removed at revision 2
+  EXPECT_EQ(at(5.0, 7.5), "unknown");   // never observed
+
+  // The legend below the plot: something drawn on a white strip.
+  const int legend_top = static_cast<int>(std::ceil(frame.row(-0.5))) + 1;
+  ASSERT_LT(legend_top, image.rows - 20);
+  const cv::Mat legend = image.rowRange(legend_top, image.rows);
+  cv::Mat dark;
+  cv::inRange(legend, cv::Scalar(0, 0, 0), cv::Scalar(100, 100, 100), dark);
+  EXPECT_GT(cv::countNonZero(dark), 500);  // text, scale bar and swatches
+}
+
+TEST_F(LogPlot, TheZBandSelectsWhatTheMapShows) {
+  const std::string log_path = tempPath("mission.lcm");
+  writeMission(log_path);
+  PlotOptions options;
+  options.out = tempPath("low.png");
+  options.size = 400;
+  options.z_min = 0.0;
+  options.z_max = 0.2;  // only the ground-level voxels
+  const auto result = plotLog(log_path, options);
+  ASSERT_TRUE(result) << result.error();
+  const cv::Mat image = cv::imread(options.out, cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  EXPECT_EQ(colourClass(image, result->frame, 2.5, 4.5), "occupied");
+  EXPECT_EQ(colourClass(image, result->frame, 2.1, 3.5), "free");
+}
+
+TEST_F(LogPlot, MissingChannelsAreNamedAndTheRestIsDrawn) {
+  const std::string log_path = tempPath("world_only.lcm");
+  writeMission(log_path, {.world = true,
+                          .truth = false,
+                          .goal = false,
+                          .explorer = false,
+                          .event = false,
+                          .map = false});
+  const std::string png = tempPath("world_only.png");
+  const CliResult result = run("plot '" + log_path + "' --out '" + png + "' --size 400");
+  EXPECT_EQ(result.status, 0) << result.output;
+  for (const std::string note :
+       {"no SIM_TRUTH or STATE_ESTIMATE: no path drawn", "no MAP_ESDF or MAP_TSDF: no map drawn",
+        "no SIM_EVENT", "no EXPLORER_GOAL", "no MISSION_GOAL: the goal is SIM_WORLD's"}) {
+    EXPECT_NE(result.output.find(note), std::string::npos) << note << "\n" << result.output;
+  }
+  const cv::Mat image = cv::imread(png, cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  EXPECT_EQ(image.cols, 400);
+  EXPECT_EQ(image.rows, 400);
+}
+
+TEST_F(LogPlot, ATsdfIsDrawnWhenThereIsNoEsdf) {
+  const std::string log_path = tempPath("tsdf.lcm");
+  {
+    LogWriter writer(log_path);
+    TsdfLayer layer(kVoxel);
+    Block<TsdfVoxel>& block = layer.allocateBlock(BlockIndex(0, 0, 0));
+    for (TsdfVoxel& v : block.voxels) v = TsdfVoxel{0.8f, 1.0f};
+    for (double z = 1.1; z < 2.0; z += kVoxel) *layer.voxel(layer.voxelIndex({1.5, 1.5, z})) = {};
+    *layer.voxel(layer.voxelIndex({2.1, 2.1, 1.5})) = TsdfVoxel{-0.1f, 2.0f};  // behind a surface
+    for (const map_update_t& msg : encodeMapUpdate(layer, {1, 3, 0, true}, {}, {})) {
+      writer.write(1, "MAP_TSDF", msg);
+    }
+    odometry_t odometry{};
+    odometry.position[0] = 0.5, odometry.position[1] = 0.5, odometry.position[2] = kHeight;
+    writer.write(2, "STATE_ESTIMATE", odometry);
+    odometry.position[0] = 2.5;
+    writer.write(3, "STATE_ESTIMATE", odometry);
+  }
+  PlotOptions options;
+  options.out = tempPath("tsdf.png");
+  options.size = 400;
+  const auto result = plotLog(log_path, options);
+  ASSERT_TRUE(result) << result.error();
+  EXPECT_EQ(result->map_layer, "MAP_TSDF");
+  const std::string notes = [&] {
+    std::string all;
+    for (const std::string& note : result->notes) all += note + "\n";
+    return all;
+  }();
+  EXPECT_NE(notes.find("no SIM_TRUTH: the path is the STATE_ESTIMATE"), std::string::npos) << notes;
+  const cv::Mat image = cv::imread(options.out, cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  EXPECT_EQ(colourClass(image, result->frame, 2.1, 2.1), "occupied");
+  EXPECT_EQ(colourClass(image, result->frame, 1.5, 1.5), "unknown");  // weight 0
+  EXPECT_EQ(colourClass(image, result->frame, 1.0, 2.9), "free");
+  EXPECT_EQ(colourClass(image, result->frame, 1.5, 0.5), "path");
+
+  options.layer = "esdf";  // asked for explicitly, and absent
+  const auto esdf = plotLog(log_path, options);
+  ASSERT_TRUE(esdf) << esdf.error();
+  EXPECT_EQ(esdf->map_layer, "");
+}
+
+TEST_F(LogPlot, NothingToDrawIsAnErrorWithStatusOne) {
+  const std::string log_path = tempPath("procman_only.lcm");
+  {
+    LogWriter writer(log_path);
+    procman_lcm::deputy_info_t info{};
+    writer.write(1, "PM_INFO", info);
+  }
+  const std::string png = tempPath("nothing.png");
+  const CliResult result = run("plot '" + log_path + "' --out '" + png + "'");
+  EXPECT_EQ(result.status, 1) << result.output;
+  EXPECT_NE(result.output.find("nothing to draw"), std::string::npos) << result.output;
+  EXPECT_FALSE(fs::exists(png));
+}
+
+TEST_F(LogPlot, AMissingLogOrBadArgumentsExitWithStatusTwo) {
+  const std::string png = tempPath("never.png");
+  const std::string missing = tempPath("missing.lcm");
+  CliResult result = run("plot '" + missing + "' --out '" + png + "'");
+  EXPECT_EQ(result.status, 2) << result.output;
+  EXPECT_NE(result.output.find("cannot open log '" + missing + "': No such file or directory"),
+            std::string::npos)
+      << result.output;
+
+  const std::string log_path = tempPath("mission.lcm");
+  writeMission(log_path);
+  for (const std::string args :
+       {"", "--size 1000", "--out x.png --size 300", "--out x.png --size 12.5",
+        "--out x.png --layer octomap", "--out x.png --z-band 2,1", "--out x.png --z-band 1"}) {
+    result = run("plot '" + log_path + "' " + args);
+    EXPECT_EQ(result.status, 2) << args << "\n" << result.output;
+    EXPECT_NE(result.output.find("usage:"), std::string::npos) << result.output;
+  }
+  EXPECT_FALSE(fs::exists(png));
+
+  result = run("plot '" + log_path + "' --out /nonexistent_dir/top.png");
+  EXPECT_EQ(result.status, 1) << result.output;
+  EXPECT_NE(result.output.find("cannot write '/nonexistent_dir/top.png'"), std::string::npos)
+      << result.output;
+}
+
+}  // namespace
+}  // namespace thicket::log
