@@ -3,10 +3,7 @@
 // udpm by this test acting as a sheriff, inside a private network namespace.
 #include <gtest/gtest.h>
 
-#include <fcntl.h>
-#include <sched.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -28,12 +25,16 @@
 
 #include "child_process.h"
 #include "proc_stats.h"
+#include "procman_test_support.h"
 #include "thicket/procman/deputy.h"
-
-extern char** environ;
 
 namespace thicket::procman {
 namespace {
+
+using test_support::isolatedUrl;
+using test_support::processAlive;
+using test_support::readFile;
+using test_support::wallMicros;
 
 constexpr int64_t kSecond = 1'000'000;
 constexpr int64_t kWall = 1'700'000'000'000'000;  // the deputy's wall clock in core tests
@@ -508,92 +509,22 @@ TEST(DeputyProcStats, ParsesCpuTimesAndMemory) {
 // ---------------------------------------------------------------------------------------------
 // The real thicket-deputy, with this test as its sheriff.
 
-// The URL to use: the default one inside a fresh network namespace, else a unique port.
-std::string isolatedUrl() {
-  if (::unshare(CLONE_NEWNET) == 0 &&
-      std::system("ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo") == 0) {
-    return "udpm://239.255.76.67:7667?ttl=0";
-  }
-  std::fprintf(stderr, "no private network namespace here; using a unique port\n");
-  return "udpm://239.255.76.67:" + std::to_string(20000 + ::getpid() % 20000) + "?ttl=0";
-}
-
-int64_t wallMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
-std::string readFile(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-// Alive: exists and is not a zombie.
-bool processAlive(int pid) {
-  const auto entry = parseProcessStat(readFile("/proc/" + std::to_string(pid) + "/stat"));
-  return entry.has_value() && entry->alive();
-}
-
 // A thicket-deputy process; terminated and reaped when the test ends.
-class DeputyChild {
+class DeputyChild : public test_support::ChildProcess {
  public:
-  DeputyChild(const std::string& id, const std::string& url, const std::string& log_path = "") {
-    static int count = 0;
-    output_path_ = ::testing::TempDir() + "/deputy_" + std::to_string(::getpid()) + "_" +
-                   std::to_string(++count) + ".txt";
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, output_path_.c_str(),
-                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
-    std::vector<const char*> argv = {THICKET_DEPUTY, "-i", id.c_str(), "--lcm-url", url.c_str()};
-    if (!log_path.empty()) {
-      argv.push_back("-l");
-      argv.push_back(log_path.c_str());
-    }
-    argv.push_back(nullptr);
-    EXPECT_EQ(posix_spawn(&pid_, THICKET_DEPUTY, &actions, nullptr,
-                          const_cast<char* const*>(argv.data()), environ),
-              0);
-    posix_spawn_file_actions_destroy(&actions);
-  }
-  ~DeputyChild() {
-    if (pid_ > 0 && !exited_) {
-      ::kill(pid_, SIGTERM);
-      if (!waitExit(10.0)) {
-        ::kill(pid_, SIGKILL);
-        ::waitpid(pid_, nullptr, 0);
-      }
-    }
-  }
-
-  int pid() const { return pid_; }
-  std::string output() const { return readFile(output_path_); }
-
-  // Waits up to `seconds` for the deputy to exit; its status is then status().
-  bool waitExit(double seconds) {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-    while (!exited_) {
-      const pid_t r = ::waitpid(pid_, &status_, WNOHANG);
-      if (r == pid_) {
-        exited_ = true;
-        break;
-      }
-      if (std::chrono::steady_clock::now() >= deadline) return false;
-      ::usleep(10'000);  // polling for an exit; nothing is timed by it
-    }
-    return true;
-  }
-  int status() const { return status_; }
+  DeputyChild(const std::string& id, const std::string& url, const std::string& log_path = "")
+      : ChildProcess(argv(id, url, log_path), test_support::uniqueTempPath("deputy")) {}
 
  private:
-  pid_t pid_ = -1;
-  std::string output_path_;
-  bool exited_ = false;
-  int status_ = 0;
+  static std::vector<std::string> argv(const std::string& id, const std::string& url,
+                                       const std::string& log_path) {
+    std::vector<std::string> words = {THICKET_DEPUTY, "-i", id, "--lcm-url", url};
+    if (!log_path.empty()) {
+      words.push_back("-l");
+      words.push_back(log_path);
+    }
+    return words;
+  }
 };
 
 // The sheriff side: sends orders (again every 200 ms, as UDP may drop and the deputy may still
