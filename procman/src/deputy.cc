@@ -39,6 +39,34 @@ constexpr size_t kReadChunk = 4096;
 constexpr size_t kMaxReadPerWake = 16 * kReadChunk;  // per pty, so that none starves the others
 constexpr size_t kMaxOutputEntries = 256;            // per output_t
 
+// The deputy is a child subreaper: whatever its commands left behind (a grandchild forked while
+// its tree was being signalled) is its own descendant. On exit it kills and reaps those, so that
+// nothing outlives it.
+void killRemainingDescendants() {
+  const int self = ::getpid();
+  for (int round = 0; round < 20; ++round) {
+    const std::vector<ProcessEntry> table = readProcessTable();
+    std::map<int, int> parent;
+    for (const ProcessEntry& p : table) parent[p.pid] = p.ppid;
+    bool any = false;
+    for (const ProcessEntry& p : table) {
+      int ancestor = p.ppid;
+      for (int depth = 0; depth < 64 && ancestor > 1 && ancestor != self; ++depth) {
+        const auto up = parent.find(ancestor);
+        ancestor = up == parent.end() ? 0 : up->second;
+      }
+      if (ancestor != self || p.pid == self) continue;
+      any = true;
+      if (p.alive()) ::kill(p.pid, SIGKILL);
+    }
+    while (::waitpid(-1, nullptr, WNOHANG) > 0) {
+    }
+    if (!any) return;
+    struct timespec pause = {0, 10'000'000};  // let the kernel deliver the kills
+    ::nanosleep(&pause, nullptr);
+  }
+}
+
 int64_t clockMicros(clockid_t clock) {
   timespec t{};
   ::clock_gettime(clock, &t);
@@ -381,6 +409,7 @@ class Deputy {
     for (size_t i = control_.ptys().size(); i-- > 0;) control_.read(i, monotonicNow());
     flushOutput(monotonicNow(), true);
     publishInfo();
+    killRemainingDescendants();
     log_.line("exiting");
     return exit_code;
   }
