@@ -1,9 +1,7 @@
 // thicket-log mission: the outcome of a simulated mission from hand-made logs of the simulator's
 // events, and the exit status the demo relies on.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
-#include <filesystem>
 #include <string>
 
 #include <thicket/goal_t.hpp>
@@ -11,18 +9,13 @@
 
 #include "cli.h"
 #include "mission.h"
+#include "temp_dir_test.h"
 #include "thicket/common/lcm_log.h"
 
 namespace thicket::log {
 namespace {
 
-namespace fs = std::filesystem;
-
-std::string tempLog(const std::string& name) {
-  return (fs::path(::testing::TempDir()) /
-          ("thicket_mission_" + std::to_string(::getpid()) + "_" + name + ".lcm"))
-      .string();
-}
+class LogMission : public thicket::testing::TempDirTest {};
 
 sim_event_t event(int8_t type, int8_t outcome = sim_event_t::OUTCOME_NONE) {
   sim_event_t e{};
@@ -45,8 +38,7 @@ goal_t explorerGoal(int8_t status) {
 }
 
 // A mission with two explorer answers (one without a candidate) and the given events.
-std::string writeMission(const std::string& name, const std::vector<sim_event_t>& events) {
-  const std::string path = tempLog(name);
+std::string writeMission(const std::string& path, const std::vector<sim_event_t>& events) {
   LogWriter writer(path);
   writer.write(1'000, "SIM_EVENT", event(sim_event_t::TYPE_TRIAL_START));
   writer.write(2'000, "EXPLORER_GOAL", explorerGoal(goal_t::STATUS_OK));
@@ -56,9 +48,9 @@ std::string writeMission(const std::string& name, const std::vector<sim_event_t>
   return path;
 }
 
-TEST(LogMission, AGoalReachedWithoutCollisionSucceeds) {
-  const std::string path =
-      writeMission("ok", {event(sim_event_t::TYPE_TRIAL_END, sim_event_t::OUTCOME_GOAL_REACHED)});
+TEST_F(LogMission, AGoalReachedWithoutCollisionSucceeds) {
+  const std::string path = writeMission(
+      tempPath("ok.lcm"), {event(sim_event_t::TYPE_TRIAL_END, sim_event_t::OUTCOME_GOAL_REACHED)});
   const auto report = missionReport(path);
   ASSERT_TRUE(report) << report.error();
   EXPECT_TRUE(report->success());
@@ -72,16 +64,17 @@ TEST(LogMission, AGoalReachedWithoutCollisionSucceeds) {
   EXPECT_EQ(cli.status, 0) << cli.output;
   EXPECT_NE(cli.output.find("mission: goal reached after 26 replans"), std::string::npos)
       << cli.output;
-  fs::remove(path);
 }
 
-TEST(LogMission, ACollisionOrAnotherEndOrNoEndFails) {
-  const std::string collided = writeMission(
-      "collided", {event(sim_event_t::TYPE_COLLISION),
-                   event(sim_event_t::TYPE_TRIAL_END, sim_event_t::OUTCOME_GOAL_REACHED)});
-  const std::string limit = writeMission(
-      "limit", {event(sim_event_t::TYPE_TRIAL_END, sim_event_t::OUTCOME_REPLAN_LIMIT)});
-  const std::string unended = writeMission("unended", {});
+TEST_F(LogMission, ACollisionOrAnotherEndOrNoEndFails) {
+  const std::string collided =
+      writeMission(tempPath("collided.lcm"),
+                   {event(sim_event_t::TYPE_COLLISION),
+                    event(sim_event_t::TYPE_TRIAL_END, sim_event_t::OUTCOME_GOAL_REACHED)});
+  const std::string limit =
+      writeMission(tempPath("limit.lcm"),
+                   {event(sim_event_t::TYPE_TRIAL_END, sim_event_t::OUTCOME_REPLAN_LIMIT)});
+  const std::string unended = writeMission(tempPath("unended.lcm"), {});
   for (const std::string& path : {collided, limit, unended}) {
     const auto report = missionReport(path);
     ASSERT_TRUE(report) << report.error();
@@ -92,7 +85,6 @@ TEST(LogMission, ACollisionOrAnotherEndOrNoEndFails) {
   EXPECT_FALSE(missionReport(limit)->goal_reached);
   EXPECT_NE(missionReport(unended)->text().find("did not end"), std::string::npos);
   EXPECT_EQ(testing::runCommand(std::string(THICKET_LOG) + " mission /nonexistent.lcm").status, 2);
-  for (const std::string& path : {collided, limit, unended}) fs::remove(path);
 }
 
 }  // namespace

@@ -2,7 +2,6 @@
 // built from a snapshot and deltas logged out of revision order) drawn to a PNG whose pixels are
 // checked by colour class; missing channels, nothing to draw, bad arguments.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -18,6 +17,7 @@
 
 #include "cli.h"
 #include "plot.h"
+#include "temp_dir_test.h"
 #include "thicket/common/lcm_log.h"
 #include "thicket/common/map_update.h"
 
@@ -176,21 +176,7 @@ std::string colourClass(const cv::Mat& image, const PlotFrame& frame, double x, 
 }
 
 // Each test writes into a fresh directory of its own, removed when it ends.
-class LogPlot : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::path(::testing::TempDir()) /
-           ("thicket_log_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string tempPath(const std::string& name) const { return (dir_ / name).string(); }
-
- private:
-  fs::path dir_;
-};
+class LogPlot : public thicket::testing::TempDirTest {};
 
 TEST_F(LogPlot, DrawsWorldMapPathGoalsAndCollisions) {
   const std::string log_path = tempPath("mission.lcm");

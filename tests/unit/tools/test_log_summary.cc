@@ -2,7 +2,6 @@
 // fingerprints, mixed channels, messages that do not decode; torn, corrupt, empty and missing
 // logs; the table and the JSON as the executable prints them.
 #include <gtest/gtest.h>
-#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
@@ -18,6 +17,7 @@
 
 #include "cli.h"
 #include "summary.h"
+#include "temp_dir_test.h"
 #include "thicket/common/lcm_log.h"
 
 namespace thicket::log {
@@ -84,21 +84,7 @@ const ChannelSummary& channel(const thicket::log::LogSummary& summary, const std
 }
 
 // Each test writes into a fresh directory of its own, removed when it ends.
-class LogSummary : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::path(::testing::TempDir()) /
-           ("thicket_log_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string tempPath(const std::string& name) const { return (dir_ / name).string(); }
-
- private:
-  fs::path dir_;
-};
+class LogSummary : public thicket::testing::TempDirTest {};
 
 TEST_F(LogSummary, CountsTimesRatesAndSizesPerChannel) {
   const std::string path = tempPath("mixed.lcm");
