@@ -48,15 +48,19 @@ public class LcmTypesCheck {
       }
       Class<?> found = database.getClassByFingerprint(fingerprint);
       if (found != cls) return "lcm-spy's type database does not map the fingerprint to it";
-      Object message = cls.getConstructor(java.io.DataInput.class)
-          .newInstance(new DataInputStream(new ByteArrayInputStream(bytes)));
-      ByteArrayOutputStream out = new ByteArrayOutputStream();
-      cls.getMethod("encode", java.io.DataOutput.class).invoke(message, new DataOutputStream(out));
-      if (!Arrays.equals(out.toByteArray(), bytes)) return "re-encoded bytes differ";
-      return null;
+      return roundTrip(cls, bytes);
     } catch (ReflectiveOperationException | java.io.IOException e) {
       Throwable cause = e.getCause() != null ? e.getCause() : e;
       return cause.toString();
     }
+  }
+
+  /** Decodes `bytes` with `cls` and re-encodes them: null when identical, else what went wrong. */
+  static String roundTrip(Class<?> cls, byte[] bytes) throws ReflectiveOperationException {
+    Object message = cls.getConstructor(java.io.DataInput.class)
+        .newInstance(new DataInputStream(new ByteArrayInputStream(bytes)));
+    ByteArrayOutputStream out = new ByteArrayOutputStream();
+    cls.getMethod("encode", java.io.DataOutput.class).invoke(message, new DataOutputStream(out));
+    return Arrays.equals(out.toByteArray(), bytes) ? null : "re-encoded bytes differ";
   }
 }

@@ -8,11 +8,8 @@
 // command line has no event.
 
 import java.io.ByteArrayInputStream;
-import java.io.ByteArrayOutputStream;
 import java.io.DataInputStream;
-import java.io.DataOutputStream;
 import java.io.EOFException;
-import java.util.Arrays;
 import java.util.Map;
 import java.util.TreeMap;
 
@@ -46,12 +43,7 @@ public class LogDecodeCheck {
           problem = String.format("unknown fingerprint %016x", fingerprint);
         } else {
           type = cls.getName();
-          Object message = cls.getConstructor(java.io.DataInput.class)
-              .newInstance(new DataInputStream(new ByteArrayInputStream(event.data)));
-          ByteArrayOutputStream out = new ByteArrayOutputStream();
-          cls.getMethod("encode", java.io.DataOutput.class)
-              .invoke(message, new DataOutputStream(out));
-          if (!Arrays.equals(out.toByteArray(), event.data)) problem = "re-encoded bytes differ";
+          problem = LcmTypesCheck.roundTrip(cls, event.data);
         }
       } catch (ReflectiveOperationException | java.io.IOException e) {
         Throwable cause = e.getCause() != null ? e.getCause() : e;

@@ -58,7 +58,7 @@ void VioBridgeNode::onOdometry(const odometry_t& msg) {
   }
   // Every estimate paces the reports, also one that was dropped: a VIO that only produces
   // garbage is reported too. A clock that went back starts a new period.
-  const bool due = !reported_ || msg.utime < last_report_utime_ ||
+  const bool due = reports_ == 0 || msg.utime < last_report_utime_ ||
                    toSeconds(msg.utime - last_report_utime_) >= options_.report_period;
   if (due) report(msg.utime);
 }
@@ -80,7 +80,6 @@ void VioBridgeNode::report(int64_t utime) {
     std::fprintf(stderr, "[vio_bridge] %s\n", health.summary().c_str());
     problems_at_report_ = problems;
   }
-  reported_ = true;
   last_report_utime_ = utime;
   window_count_ = 0;
   window_ms_ = 0;

@@ -50,7 +50,6 @@ class VioBridgeNode : public Node {
   double total_ms_ = 0;
   double max_ms_ = 0;
   // Since the previous report.
-  bool reported_ = false;
   int64_t last_report_utime_ = 0;
   int64_t reports_ = 0;
   int64_t window_count_ = 0;
