@@ -80,21 +80,38 @@ void LogWriter::write(int64_t timestamp, const std::string& channel, const void*
 }
 
 void LogWriter::flush() {
-  std::fflush(file_->getFilePtr());
+  if (std::fflush(file_->getFilePtr()) != 0) {
+    throw std::runtime_error(path_ + ": cannot write: " + std::strerror(errno));
+  }
 }
 
-LogRecorder::LogRecorder(lcm::LCM& lcm, const std::string& path, const std::string& channel_regex)
+LogRecorder::LogRecorder(lcm::LCM& lcm, const std::string& path, const std::string& channel_regex,
+                         int queue_capacity)
     : Node("recorder", lcm), writer_(path) {
   subscribeRaw(
       channel_regex,
       [this](const void* data, size_t size, const MessageInfo& info) {
+        if (!write_error_.empty()) return;
         // Receive times of different transports can step back by a few microseconds; the log
         // keeps arrival order, so clamp instead of refusing.
-        writer_.write(std::max(info.recv_utime, last_stamp_), std::string(info.channel), data,
-                      size);
         last_stamp_ = std::max(info.recv_utime, last_stamp_);
+        try {
+          writer_.write(last_stamp_, std::string(info.channel), data, size);
+          bytes_written_ += static_cast<int64_t>(size);
+        } catch (const std::exception& e) {
+          write_error_ = e.what();
+        }
       },
-      1000);
+      queue_capacity);
+}
+
+void LogRecorder::flush() {
+  if (!write_error_.empty()) return;
+  try {
+    writer_.flush();
+  } catch (const std::exception& e) {
+    write_error_ = e.what();
+  }
 }
 
 int64_t replayLog(LogReader& reader, lcm::LCM& lcm, Loop& loop,

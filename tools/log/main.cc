@@ -3,6 +3,7 @@
 //   thicket-log summary LOG [--json]          what a log holds, per channel and in total
 //   thicket-log plot LOG --out FILE.png [...]  a top-down picture of a simulated mission
 //   thicket-log mission LOG                    how a simulated mission went
+//   thicket-log record OUT [...]               records the bus, like lcm-logger but lossless
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -16,7 +17,9 @@
 
 #include "mission.h"
 #include "plot.h"
+#include "record.h"
 #include "summary.h"
+#include "thicket/common/node_main.h"
 
 namespace {
 
@@ -25,6 +28,8 @@ constexpr const char* kUsage =
     "       thicket-log plot LOG --out FILE.png [--size PIXELS] [--layer esdf|tsdf|auto]\n"
     "                            [--z-band MIN,MAX]\n"
     "       thicket-log mission LOG\n"
+    "       thicket-log record OUT [--increment | --force] [--channels REGEX] [--lcm-url URL]\n"
+    "                          [--queue N] [--drain SECONDS]\n"
     "\n"
     "summary  per channel (sorted by name): message count, first and last time, duration, mean\n"
     "         rate ((count - 1) / duration), mean and maximum message size, and the LCM type\n"
@@ -42,10 +47,22 @@ constexpr const char* kUsage =
     "mission  how a simulated mission went, from the simulator's SIM_EVENT (the trial end's\n"
     "         summary, collisions, refused trajectories) and the EXPLORER_GOAL goals; exit\n"
     "         status 0 only when it reached the goal without a collision, 1 otherwise.\n"
+    "record   records the bus into the log OUT (the lcm-logger format; event timestamps are\n"
+    "         receive times) until SIGINT or SIGTERM, then until the bus has been quiet for "
+    "--drain\n"
+    "         seconds (default 0.2, at most 2 s more). Unlike lcm-logger (LCM 1.3.1), whose\n"
+    "         subscription queue holds 30 messages, it keeps bursts of up to --queue messages\n"
+    "         (default 10000). An existing OUT is refused unless --force; --increment writes "
+    "OUT.00,\n"
+    "         OUT.01, ... (the first free one, as lcm-logger -i). Flushed every second. It prints\n"
+    "         \"recording ...\" on stderr once subscribed and what it wrote when it stops.\n"
+    "         --channels  regular expression of the channels to record (default .*)\n"
+    "         --lcm-url   the bus (default: $LCM_DEFAULT_URL, else "
+    "udpm://239.255.76.67:7667?ttl=0)\n"
     "\n"
     "exit status: 0 done (damage found in the log is reported on stderr); 1 nothing could be\n"
-    "read, nothing to draw, or the PNG could not be written; 2 bad arguments or a log that\n"
-    "cannot be opened.\n";
+    "read, nothing to draw, the PNG could not be written, or a recording could not be\n"
+    "written; 2 bad arguments, a log that cannot be opened, or a recording that cannot start.\n";
 
 int usageError(const std::string& message) {
   std::fprintf(stderr, "thicket-log: %s\n%s", message.c_str(), kUsage);
@@ -189,6 +206,34 @@ int mission(const std::vector<std::string>& args) {
   return report->success() ? 0 : 1;
 }
 
+int record(const std::vector<std::string>& args) {
+  const Arguments parsed = parseArguments(args, {"--channels", "--lcm-url", "--queue", "--drain"},
+                                          {"--increment", "--force"});
+  if (!parsed.error.empty())
+    return usageError(parsed.error == "no LOG given" ? "no OUT given" : parsed.error);
+  thicket::log::RecordOptions options;
+  options.out = parsed.log;
+  options.increment = parsed.flags.count("--increment") > 0;
+  options.force = parsed.flags.count("--force") > 0;
+  if (parsed.flags.count("--channels")) options.channels = parsed.flags.at("--channels");
+  options.lcm_url =
+      parsed.flags.count("--lcm-url") ? parsed.flags.at("--lcm-url") : thicket::defaultLcmUrl();
+  if (parsed.flags.count("--queue")) {
+    double queue = 0;
+    if (!parseNumber(parsed.flags.at("--queue"), queue) || queue != std::floor(queue)) {
+      return usageError("--queue must be a whole number of messages");
+    }
+    options.queue = static_cast<int>(std::clamp(queue, -1.0, 1e7));
+  }
+  if (parsed.flags.count("--drain") && !parseNumber(parsed.flags.at("--drain"), options.drain_s)) {
+    return usageError("--drain must be a number of seconds");
+  }
+  if (const std::string error = thicket::log::validateRecordOptions(options); !error.empty()) {
+    return usageError(error);
+  }
+  return thicket::log::record(options);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -204,5 +249,6 @@ int main(int argc, char** argv) {
   if (command == "summary") return summary(args);
   if (command == "plot") return plot(args);
   if (command == "mission") return mission(args);
+  if (command == "record") return record(args);
   return usageError(command.empty() ? "no command given" : "unknown command '" + command + "'");
 }

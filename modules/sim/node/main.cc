@@ -166,7 +166,8 @@ int renderCommand(const std::vector<std::string>& args) {
         return fail(error);
       }
     }
-    std::ofstream(flags.get("--calib")) << renderer.calibrationYaml("sim_stereo");
+    std::ofstream(flags.get("--calib"))
+        << renderer.calibrationYaml(options.stereo_camera.calibration_id);
   }
   return 0;
 }

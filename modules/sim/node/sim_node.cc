@@ -134,7 +134,7 @@ void SimNode::publishFrame() {
     const PinholeCamera camera = stereo_->camera();
     stereo_image_t msg{};
     msg.utime = state.utime;
-    msg.calibration_id = "sim_stereo";
+    msg.calibration_id = options_.stereo_camera.calibration_id;
     msg.rectified = true;
     msg.left = grayImage(state.utime, "left", camera.width, camera.height, std::move(left));
     msg.right = grayImage(state.utime, "right", camera.width, camera.height, std::move(right));

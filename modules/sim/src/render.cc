@@ -815,11 +815,23 @@ void DepthRenderer::render(const Pose& world_T_body, std::vector<float>& depth_m
 
 // --- StereoRenderer ---------------------------------------------------------------------------
 
+namespace {
+
+bool validCalibrationId(const std::string& id) {
+  return !id.empty() && std::all_of(id.begin(), id.end(), [](char ch) {
+    return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '.' || ch == '-';
+  });
+}
+
+}  // namespace
+
 void StereoCameraOptions::declare(Params& p) {
   declareCameraGeometry(p, width, height, horizontal_fov_deg, pitch_down_deg, position_in_body,
                         "left optical centre in the body frame [m]");
   p("baseline", baseline, "distance of the right camera along the left's x [m]", Range::positive());
   p("max_range", max_range, "surfaces beyond this range look like the sky [m]", Range::positive());
+  p("calibration_id", calibration_id,
+    "the calibration the pairs name (the stereo depth node refuses pairs of another one)");
 }
 
 StereoRenderer::StereoRenderer(const World& world, StereoCameraOptions options)
@@ -831,6 +843,9 @@ StereoRenderer::StereoRenderer(const World& world, StereoCameraOptions options)
                             options.position_in_body)),
       left_in_body_(cameraMount(options.position_in_body, options.pitch_down_deg * pi / 180)),
       optical_rays_(opticalRays(camera_)) {
+  if (!validCalibrationId(options_.calibration_id)) {
+    throw std::invalid_argument("StereoRenderer: calibration_id must be non-empty [A-Za-z0-9_.-]");
+  }
   if (!(options_.baseline > 0 && std::isfinite(options_.baseline))) {
     throw std::invalid_argument("StereoRenderer: baseline must be positive");
   }
@@ -886,10 +901,7 @@ double StereoRenderer::surfaceIntensity(const SurfaceHit& hit, double footprint_
 }
 
 std::string StereoRenderer::calibrationYaml(const std::string& id) const {
-  const bool id_ok = !id.empty() && std::all_of(id.begin(), id.end(), [](char ch) {
-    return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '.' || ch == '-';
-  });
-  if (!id_ok) {
+  if (!validCalibrationId(id)) {
     throw std::invalid_argument("calibrationYaml: the id must be non-empty [A-Za-z0-9_.-]");
   }
   const PinholeCamera& c = camera_;

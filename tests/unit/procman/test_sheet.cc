@@ -492,8 +492,9 @@ TEST(SheetErrors, IntegersUpToTheLimitAreAccepted) {
 namespace thicket::procman {
 namespace {
 
-// The sheets thicket ships parse, run programs that the build makes (or lcm-logger/-logplayer),
-// and have the scripts an operator presses.
+// The sheets thicket ships parse, run programs that the build makes (from build/, in the source
+// directory that builds them) or LCM's tools (lcm-logplayer), and have the scripts an operator
+// presses.
 TEST(ShippedSheets, ParseAndNameWhatExists) {
   const std::string root = THICKET_SOURCE_DIR;
   const std::vector<std::pair<std::string, std::vector<std::string>>> sheets = {
@@ -507,12 +508,13 @@ TEST(ShippedSheets, ParseAndNameWhatExists) {
     for (const std::string& script : scripts) EXPECT_NE(sheet->script(script), nullptr) << file;
     for (const SheetCommand& c : sheet->commands) {
       const std::string program = c.exec.substr(0, c.exec.find(' '));
-      EXPECT_TRUE(program.rfind("build/modules/", 0) == 0 || program.rfind("lcm-", 0) == 0)
+      EXPECT_TRUE(program.rfind("build/", 0) == 0 || program.rfind("lcm-", 0) == 0)
           << file << ": " << c.exec;
-      if (program.rfind("build/modules/", 0) == 0) {
-        const std::string source = root + "/modules/" + program.substr(14);
+      if (program.rfind("build/", 0) == 0) {
+        const std::string source = root + "/" + program.substr(6);
         const std::string dir = source.substr(0, source.rfind('/'));
-        EXPECT_EQ(::access(dir.c_str(), F_OK), 0) << file << ": no module for " << program;
+        EXPECT_EQ(::access((dir + "/CMakeLists.txt").c_str(), F_OK), 0)
+            << file << ": nothing builds " << program;
       }
     }
   }

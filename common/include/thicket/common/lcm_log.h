@@ -76,7 +76,7 @@ class LogWriter {
     write(timestamp, channel, buffer.data(), buffer.size());
   }
 
-  /// Flushes to disk.
+  /// Hands everything written to the operating system; throws std::runtime_error when it fails.
   void flush();
   int64_t eventsWritten() const { return events_written_; }
 
@@ -88,16 +88,26 @@ class LogWriter {
 };
 
 /// Records every message on channels matching `channel_regex` into a log, stamped with its
-/// receive time — what lcm-logger does, for in-process composites and tests.
+/// receive time — what lcm-logger does, for `thicket-log record`, in-process composites and
+/// tests. Its subscription queue holds `queue_capacity` messages, so bursts longer than LCM's
+/// default 30 (the lockstep simulator publishes such bursts) are kept, not dropped.
 class LogRecorder : public Node {
  public:
-  LogRecorder(lcm::LCM& lcm, const std::string& path, const std::string& channel_regex = ".*");
+  LogRecorder(lcm::LCM& lcm, const std::string& path, const std::string& channel_regex = ".*",
+              int queue_capacity = 1000);
   int64_t eventsWritten() const { return writer_.eventsWritten(); }
-  void flush() { writer_.flush(); }
+  int64_t bytesWritten() const { return bytes_written_; }
+  /// Flushes to disk; a failure is kept in writeError() like a failed write.
+  void flush();
+  /// Why writing failed (the disk is full, the file was removed...), or empty. After a failure
+  /// nothing more is written: the log holds everything up to it.
+  const std::string& writeError() const { return write_error_; }
 
  private:
   LogWriter writer_;
   int64_t last_stamp_ = 0;
+  int64_t bytes_written_ = 0;
+  std::string write_error_;
 };
 
 /// Replays a log onto `lcm` as fast as it can: publishes each event (those `filter` accepts)

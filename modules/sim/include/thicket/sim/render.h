@@ -190,6 +190,9 @@ struct StereoCameraOptions {
   double pitch_down_deg = 0;       ///< mount pitch, positive looks down [deg]
   /// Optical centre of the left camera in the body frame [m].
   Eigen::Vector3d position_in_body = Eigen::Vector3d::Zero();
+  /// The calibration the pairs name (stereo_image_t.calibration_id, calibrationYaml's id):
+  /// "vehicle" lets the simulator stand in for the vehicle's camera driver.
+  std::string calibration_id = "sim_stereo";
 
   void declare(Params& p);
 };
