@@ -21,6 +21,7 @@
 #include <thicket/module_timing_t.hpp>
 
 #include "explorer_node.h"
+#include "flags.h"
 #include "local_planner_node.h"
 #include "mapper_node.h"
 #include "sim_node.h"
@@ -122,38 +123,9 @@ std::string usage() {
 
 // ---- flags ----
 
-using FlagError = std::optional<std::string>;
-
-FlagError setNumber(double& value, const std::string& flag, const std::string& text) {
-  try {
-    size_t used = 0;
-    const double parsed = std::stod(text, &used);
-    if (used == text.size() && std::isfinite(parsed) && parsed >= 0) {
-      value = parsed;
-      return {};
-    }
-  } catch (const std::exception&) {
-  }
-  return flag + " '" + text + "' is not a non-negative number";
-}
-
 FlagError setText(std::string& value, const std::string& text) {
   value = text;
   return {};
-}
-
-template <class Int>
-FlagError setInteger(Int& value, const std::string& flag, const std::string& text, Int min) {
-  try {
-    size_t used = 0;
-    const long long parsed = std::stoll(text, &used);
-    if (used == text.size() && parsed >= min && parsed <= std::numeric_limits<Int>::max()) {
-      value = static_cast<Int>(parsed);
-      return {};
-    }
-  } catch (const std::exception&) {
-  }
-  return flag + " must be an integer >= " + std::to_string(min) + ", not '" + text + "'";
 }
 
 template <class Row, size_t N>
@@ -168,13 +140,13 @@ FlagError setChoice(std::string& value, const std::string& what, const Row (&tab
   return "unknown " + what + " '" + text + "' (known: " + rowNames(table) + ")";
 }
 
-using Setter = std::function<FlagError(RunOptions&, const std::string&)>;
+using Setter = FlagSetter<RunOptions>;
 
 const std::map<std::string, Setter>& setters() {
   static const std::map<std::string, Setter> table = {
       {"--scenario", [](RunOptions& o, const std::string& v) { return setText(o.scenario, v); }},
       {"--density",
-       [](RunOptions& o, const std::string& v) { return setNumber(o.density, "--density", v); }},
+       [](RunOptions& o, const std::string& v) { return parseNumber(o.density, "--density", v); }},
       {"--method", [](RunOptions& o,
                       const std::string& v) { return setChoice(o.method, "method", kMethods, v); }},
       {"--goal-finding",
@@ -183,16 +155,18 @@ const std::map<std::string, Setter>& setters() {
        }},
       {"--sensor", [](RunOptions& o,
                       const std::string& v) { return setChoice(o.sensor, "sensor", kSensors, v); }},
-      {"--trials",
-       [](RunOptions& o, const std::string& v) { return setInteger(o.trials, "--trials", v, 1); }},
+      {"--trials", [](RunOptions& o,
+                      const std::string& v) { return parseInteger(o.trials, "--trials", v, 1); }},
       {"--seed-base",
        [](RunOptions& o, const std::string& v) {
-         return setInteger<int64_t>(o.seed_base, "--seed-base", v, 0);
+         return parseInteger<int64_t>(o.seed_base, "--seed-base", v, 0);
        }},
-      {"--replans", [](RunOptions& o,
-                       const std::string& v) { return setInteger(o.replans, "--replans", v, 1); }},
+      {"--replans",
+       [](RunOptions& o, const std::string& v) {
+         return parseInteger(o.replans, "--replans", v, 1);
+       }},
       {"--jobs",
-       [](RunOptions& o, const std::string& v) { return setInteger(o.jobs, "--jobs", v, 1); }},
+       [](RunOptions& o, const std::string& v) { return parseInteger(o.jobs, "--jobs", v, 1); }},
       {"--worlds-dir",
        [](RunOptions& o, const std::string& v) { return setText(o.worlds_dir, v); }},
       {"--out", [](RunOptions& o, const std::string& v) { return setText(o.out, v); }},
@@ -205,30 +179,11 @@ const std::map<std::string, Setter>& setters() {
 Expected<RunOptions> parseRunOptions(const std::vector<std::string>& args) {
   RunOptions options;
   options.worlds_dir = std::string(THICKET_SOURCE_DIR) + "/config/worlds";
-  std::set<std::string> given;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--help" || args[i] == "-h") {
-      options.help = true;
-      return options;
-    }
-    if (args[i].rfind("--", 0) != 0) return unexpected("unexpected argument '" + args[i] + "'");
-    // "--flag value" or "--flag=value".
-    const size_t equals = args[i].find('=');
-    const std::string flag = args[i].substr(0, equals);
-    const auto setter = setters().find(flag);
-    if (setter == setters().end()) return unexpected("unknown option " + flag);
-    std::string value;
-    if (equals != std::string::npos) {
-      value = args[i].substr(equals + 1);
-    } else if (i + 1 < args.size()) {
-      value = args[++i];
-    }
-    if (value.empty()) return unexpected(flag + " needs a value");
-    if (FlagError error = setter->second(options, value)) return unexpected(*error);
-    given.insert(flag);
-  }
+  const auto given = applyFlags(args, setters(), options);
+  if (!given) return unexpected(given.error());
+  if (options.help) return options;
   for (const char* required : {"--density", "--trials", "--out"}) {
-    if (!given.count(required)) return unexpected(std::string("run needs ") + required);
+    if (!given->count(required)) return unexpected(std::string("run needs ") + required);
   }
   return options;
 }
@@ -382,18 +337,30 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   return result;
 }
 
-namespace {
+std::vector<std::string> methodNames() {
+  std::vector<std::string> names;
+  for (const Method& method : kMethods) names.emplace_back(method.name);
+  return names;
+}
+
+std::vector<std::string> goalFindingNames() {
+  std::vector<std::string> names;
+  for (const GoalFinding& variant : kGoalFindings) names.emplace_back(variant.name);
+  return names;
+}
 
 // ---- output ----
 
-std::string format(const char* spec, double value) {
+std::string formatNumber(const char* spec, double value) {
   char text[64];
   std::snprintf(text, sizeof(text), spec, value);
   return text;
 }
 
+namespace {
+
 std::string fixed(double value) {
-  return format("%.4f", value);
+  return formatNumber("%.4f", value);
 }
 
 std::string flag(bool value) {
@@ -402,39 +369,91 @@ std::string flag(bool value) {
 
 // Quoted when it holds a separator or a quote (RFC 4180).
 std::string csvField(const std::string& text) {
-  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
   std::string quoted = "\"";
   for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
   return quoted + "\"";
 }
 
-std::string joinRow(const std::vector<std::string>& cells) {
+}  // namespace
+
+std::string csvLine(const std::vector<std::string>& cells) {
   std::string line;
-  for (size_t i = 0; i < cells.size(); ++i) line += (i ? "," : "") + cells[i];
+  for (size_t i = 0; i < cells.size(); ++i) line += (i ? "," : "") + csvField(cells[i]);
   return line + "\n";
 }
 
-std::string pathFile(const RunOptions& options, int trial) {
-  return options.out + "/paths/" + std::to_string(trial) + ".csv";
-}
-
-void writeFile(const std::string& path, const std::string& text) {
+void writeTextFile(const std::string& path, const std::string& text) {
   std::ofstream file(path, std::ios::binary);
   file << text;
   file.close();
   if (!file) throw std::runtime_error("cannot write " + path);
 }
 
-void writePath(const std::string& file, const std::vector<sim::PathSample>& path) {
+void writePathFile(const std::string& path, const std::vector<sim::PathSample>& samples) {
   std::string text = "t,x,y,z,yaw\n";
   char line[160];
-  for (const sim::PathSample& s : path) {
+  for (const sim::PathSample& s : samples) {
     std::snprintf(line, sizeof(line), "%.3f,%.6f,%.6f,%.6f,%.6f\n",
-                  toSeconds(s.utime - path.front().utime), s.position.x(), s.position.y(),
+                  toSeconds(s.utime - samples.front().utime), s.position.x(), s.position.y(),
                   s.position.z(), s.yaw);
     text += line;
   }
-  writeFile(file, text);
+  writeTextFile(path, text);
+}
+
+const std::vector<std::string>& outcomeColumns() {
+  static const std::vector<std::string> columns = {
+      "success",     "collision",          "min_clearance_m", "feasible",
+      "num_replans", "distance_to_goal_m", "path_length_m",   "straight_line_m",
+      "path_time_s", "solvable",           "wall_time_s",     "end_reason"};
+  return columns;
+}
+
+std::vector<std::string> outcomeCells(const TrialResult& r) {
+  std::string reason = r.end_reason;
+  std::replace(reason.begin(), reason.end(), '\n', ' ');
+  std::replace(reason.begin(), reason.end(), '\r', ' ');
+  return {flag(r.success),
+          flag(r.collision),
+          fixed(r.min_clearance_m),
+          flag(r.feasible),
+          std::to_string(r.num_replans),
+          fixed(r.distance_to_goal_m),
+          fixed(r.path_length_m),
+          fixed(r.straight_line_m),
+          fixed(r.path_time_s),
+          flag(r.solvable),
+          fixed(r.wall_time_s),
+          reason};
+}
+
+std::vector<std::string> stageColumns(const std::set<std::string>& stages) {
+  std::vector<std::string> columns;
+  for (const std::string& stage : stages) {
+    for (const char* summary : {"median", "p95", "max"})
+      columns.push_back(stage + "_ms_" + summary);
+  }
+  return columns;
+}
+
+std::vector<std::string> stageCells(const std::set<std::string>& stages,
+                                    const std::map<std::string, StageTiming>& timings) {
+  std::vector<std::string> cells;
+  for (const std::string& stage : stages) {
+    const auto timing = timings.find(stage);
+    for (double StageTiming::*summary :
+         {&StageTiming::median_ms, &StageTiming::p95_ms, &StageTiming::max_ms}) {
+      cells.push_back(timing == timings.end() ? "" : formatNumber("%.3f", timing->second.*summary));
+    }
+  }
+  return cells;
+}
+
+namespace {
+
+std::string pathFile(const RunOptions& options, int trial) {
+  return options.out + "/paths/" + std::to_string(trial) + ".csv";
 }
 
 // trials.csv: the columns of BENCHMARK.md, then the median, p95 and max of every module stage
@@ -445,62 +464,26 @@ void writeTrials(const RunOptions& options, const std::string& scenario,
   for (const TrialResult& r : results) {
     for (const auto& [stage, timing] : r.timings) stages.insert(stage);
   }
-  std::vector<std::string> header = {"trial",
-                                     "seed",
-                                     "scenario",
-                                     "density",
-                                     "method",
-                                     "goal_finding",
-                                     "sensor",
-                                     "success",
-                                     "collision",
-                                     "min_clearance_m",
-                                     "feasible",
-                                     "num_replans",
-                                     "distance_to_goal_m",
-                                     "path_length_m",
-                                     "straight_line_m",
-                                     "path_time_s",
-                                     "solvable",
-                                     "wall_time_s",
-                                     "end_reason"};
-  for (const std::string& stage : stages) {
-    for (const char* summary : {"median", "p95", "max"}) {
-      header.push_back(stage + "_ms_" + summary);
-    }
+  std::vector<std::string> header = {"trial",  "seed",         "scenario", "density",
+                                     "method", "goal_finding", "sensor"};
+  for (const std::vector<std::string>& more : {outcomeColumns(), stageColumns(stages)}) {
+    header.insert(header.end(), more.begin(), more.end());
   }
-  std::string text = joinRow(header);
+  std::string text = csvLine(header);
   for (const TrialResult& r : results) {
     std::vector<std::string> cells = {std::to_string(r.trial),
                                       std::to_string(r.seed),
-                                      csvField(scenario),
-                                      format("%g", options.density),
+                                      scenario,
+                                      formatNumber("%g", options.density),
                                       options.method,
                                       options.goal_finding,
-                                      options.sensor,
-                                      flag(r.success),
-                                      flag(r.collision),
-                                      fixed(r.min_clearance_m),
-                                      flag(r.feasible),
-                                      std::to_string(r.num_replans),
-                                      fixed(r.distance_to_goal_m),
-                                      fixed(r.path_length_m),
-                                      fixed(r.straight_line_m),
-                                      fixed(r.path_time_s),
-                                      flag(r.solvable),
-                                      fixed(r.wall_time_s),
-                                      csvField(r.end_reason)};
-    for (const std::string& stage : stages) {
-      const auto timing = r.timings.find(stage);
-      const bool seen = timing != r.timings.end();
-      for (double StageTiming::*summary :
-           {&StageTiming::median_ms, &StageTiming::p95_ms, &StageTiming::max_ms}) {
-        cells.push_back(seen ? format("%.3f", timing->second.*summary) : "");
-      }
+                                      options.sensor};
+    for (const std::vector<std::string>& more : {outcomeCells(r), stageCells(stages, r.timings)}) {
+      cells.insert(cells.end(), more.begin(), more.end());
     }
-    text += joinRow(cells);
+    text += csvLine(cells);
   }
-  writeFile(options.out + "/trials.csv", text);
+  writeTextFile(options.out + "/trials.csv", text);
 }
 
 // ---- the run ----
@@ -510,7 +493,7 @@ TrialResult attemptTrial(const RunOptions& options, int trial) {
   const uint64_t seed = static_cast<uint64_t>(options.seed_base) + static_cast<uint64_t>(trial);
   try {
     TrialResult result = runTrial(options, trialWorld(options, trial), trial);
-    writePath(pathFile(options, trial), result.path);
+    writePathFile(pathFile(options, trial), result.path);
     result.path = {};  // written; a long run should not hold every path
     return result;
   } catch (const std::exception& e) {

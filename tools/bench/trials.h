@@ -7,6 +7,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,34 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
 /// The world of trial `trial` (seed base + trial) of `options`; throws std::runtime_error when the
 /// scenario cannot be loaded or the world not generated.
 sim::World trialWorld(const RunOptions& options, int trial);
+
+/// The methods (goal-selection strategies) and goal-finding variants trials accept, in their
+/// fixed order.
+std::vector<std::string> methodNames();
+std::vector<std::string> goalFindingNames();
+
+// ---- trials.csv, shared by `thicket-bench run` and `thicket-bench experiment` ----
+
+/// The columns of a trial's outcome, success ... end_reason (BENCHMARK.md's metrics).
+const std::vector<std::string>& outcomeColumns();
+/// A trial's cells under outcomeColumns(), unquoted; a line break in the end reason becomes a
+/// space, so a row is one line.
+std::vector<std::string> outcomeCells(const TrialResult& result);
+/// "<stage>_ms_median", "<stage>_ms_p95", "<stage>_ms_max" for every stage, in `stages` order.
+std::vector<std::string> stageColumns(const std::set<std::string>& stages);
+/// The cells under stageColumns(stages) of a trial with `timings`: milliseconds with three
+/// decimals, empty where the trial lacks the stage.
+std::vector<std::string> stageCells(const std::set<std::string>& stages,
+                                    const std::map<std::string, StageTiming>& timings);
+/// `value` printed with printf's `spec` ("%g", "%.4f").
+std::string formatNumber(const char* spec, double value);
+/// One CSV line (RFC 4180: a cell holding a comma, quote or line break is quoted), with "\n".
+std::string csvLine(const std::vector<std::string>& cells);
+/// Writes `text` to `path`; throws std::runtime_error naming the file when it cannot.
+void writeTextFile(const std::string& path, const std::string& text);
+/// The executed path as CSV: t (seconds from the first sample), x, y, z, yaw. Throws as
+/// writeTextFile.
+void writePathFile(const std::string& path, const std::vector<sim::PathSample>& samples);
 
 /// `thicket-bench run ARGS`: runs the trials and writes DIR/trials.csv and DIR/paths/<trial>.csv.
 /// Returns the exit status: 0 when every trial ran, 1 when one could not run or the output could

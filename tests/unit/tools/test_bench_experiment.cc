@@ -1,0 +1,477 @@
+// `thicket-bench experiment` and `merge` as a user runs them: the trial list and its shards,
+// resuming a killed run, shards merged back into one run's rows, trials whose rows do not depend
+// on the thread count, kept logs, trials that could not run, and bad flags refused.
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <thicket/sim_event_t.hpp>
+
+#include "cli.h"
+#include "experiments.h"
+#include "thicket/common/lcm_log.h"
+
+namespace thicket::bench {
+namespace {
+
+namespace fs = std::filesystem;
+using thicket::testing::CliResult;
+using Table = std::vector<std::vector<std::string>>;
+
+CliResult bench(const std::string& args) {
+  return thicket::testing::runCommand(std::string(THICKET_BENCH) + " " + args);
+}
+
+// Every folder of this test process, removed when the process ends.
+std::string tempDir(const std::string& name) {
+  return ::testing::TempDir() + "/bench_experiment_" + std::to_string(::getpid()) + "/" + name;
+}
+
+std::string readFile(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  EXPECT_TRUE(file.good()) << path;
+  return std::string((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+}
+
+void writeFile(const std::string& path, const std::string& text) {
+  std::ofstream file(path, std::ios::binary);
+  file << text;
+}
+
+Table readCsv(const std::string& path) {
+  const CsvText csv = parseCsv(readFile(path));
+  EXPECT_FALSE(csv.torn_tail) << path;
+  return csv.records;
+}
+
+// A table without the columns that measure wall-clock time (wall_time_s and the stage timings):
+// what must not depend on threads, shards or resuming.
+Table withoutTimes(const Table& table) {
+  std::vector<bool> keep;
+  for (const std::string& column : table.at(0)) {
+    keep.push_back(column != "wall_time_s" && column.find("_ms_") == std::string::npos &&
+                   column != "timings");
+  }
+  Table kept;
+  for (const std::vector<std::string>& row : table) {
+    EXPECT_EQ(row.size(), keep.size());
+    std::vector<std::string> cells;
+    for (size_t i = 0; i < row.size() && i < keep.size(); ++i) {
+      if (keep[i]) cells.push_back(row[i]);
+    }
+    kept.push_back(cells);
+  }
+  return kept;
+}
+
+std::vector<TrialSpec> list(std::vector<std::string> args) {
+  args.insert(args.end(), {"--out", "unused"});
+  const auto options = parseExperimentOptions(args);
+  EXPECT_TRUE(options) << options.error();
+  return options ? trialList(*options) : std::vector<TrialSpec>{};
+}
+
+TEST(BenchExperimentList, CoversTheExperimentsInAFixedOrder) {
+  const std::vector<TrialSpec> all = list({});
+  // E1: 10 densities x 3 goal findings x 100; E2: 10 x 6 methods x 50; E4: 2 x 6 x 20.
+  ASSERT_EQ(all.size(), 3000u + 3000u + 240u);
+  std::set<std::string> keys;
+  for (const TrialSpec& spec : all) keys.insert(spec.key());
+  EXPECT_EQ(keys.size(), all.size()) << "keys are not unique";
+
+  // Trial number first, then density, method, goal finding.
+  EXPECT_EQ(all[0].key(), "E1/paper/d0.05/none/line/depth/s0");
+  EXPECT_EQ(all[1].key(), "E1/paper/d0.05/none/gradient/depth/s0");
+  EXPECT_EQ(all[2].key(), "E1/paper/d0.05/none/soft/depth/s0");
+  EXPECT_EQ(all[3].key(), "E1/paper/d0.1/none/line/depth/s0");
+  EXPECT_EQ(all[29].key(), "E1/paper/d0.5/none/soft/depth/s0");
+  EXPECT_EQ(all[30].key(), "E1/paper/d0.05/none/line/depth/s1");
+  EXPECT_EQ(all[3000].key(), "E2/paper/d0.05/none/soft/depth/s0");
+  EXPECT_EQ(all[3001].key(), "E2/paper/d0.05/random/soft/depth/s0");
+  EXPECT_EQ(all[3006].key(), "E2/paper/d0.1/none/soft/depth/s0");
+  EXPECT_EQ(all[6000].key(), "E4/forest50/d0.1/none/soft/depth/s0");
+  EXPECT_EQ(all.back().key(), "E4/forest50/d0.2/local_exploration/soft/depth/s19");
+  EXPECT_EQ(all[0].replans, 60);
+  EXPECT_EQ(all[3000].replans, 120);
+  EXPECT_EQ(all[6000].replans, 500);
+  EXPECT_EQ(all[30].trial, 1);
+  EXPECT_EQ(all[30].seed, 1u);
+
+  // E3 is E2's trials, T1 E4's; E5 flies none.
+  std::vector<TrialSpec> e2 = list({"--experiment", "E2"});
+  ASSERT_EQ(e2.size(), 3000u);
+  EXPECT_EQ(e2.front().key(), all[3000].key());
+  EXPECT_EQ(list({"--experiment", "E3"}).size(), 3000u);
+  EXPECT_EQ(list({"--experiment", "E3,E2"}).size(), 3000u);
+  EXPECT_EQ(list({"--experiment", "T1"}).size(), 240u);
+  EXPECT_TRUE(list({"--experiment", "E5"}).empty());
+
+  // The selection narrows the list; --trials, --seed-base and --replans change it.
+  const std::vector<TrialSpec> small =
+      list({"--experiment", "E2", "--method", "local_exploration,none", "--density", "0.3,0.1",
+            "--trials", "2", "--seed-base", "10", "--replans", "7"});
+  std::vector<std::string> small_keys;
+  for (const TrialSpec& spec : small) {
+    small_keys.push_back(spec.key());
+    EXPECT_EQ(spec.replans, 7);
+    EXPECT_EQ(spec.seed, 10u + static_cast<uint64_t>(spec.trial));
+  }
+  EXPECT_EQ(small_keys, (std::vector<std::string>{
+                            "E2/paper/d0.1/none/soft/depth/s10",
+                            "E2/paper/d0.1/local_exploration/soft/depth/s10",
+                            "E2/paper/d0.3/none/soft/depth/s10",
+                            "E2/paper/d0.3/local_exploration/soft/depth/s10",
+                            "E2/paper/d0.1/none/soft/depth/s11",
+                            "E2/paper/d0.1/local_exploration/soft/depth/s11",
+                            "E2/paper/d0.3/none/soft/depth/s11",
+                            "E2/paper/d0.3/local_exploration/soft/depth/s11",
+                        }));
+  EXPECT_EQ(list({"--experiment", "E1,E4", "--density", "0.2"}).size(), 300u + 120u);
+  EXPECT_EQ(list({"--scenario", "forest50"}).size(), 240u);
+}
+
+TEST(BenchExperimentList, EveryTrialIsInExactlyOneShard) {
+  const std::vector<TrialSpec> all = list({});
+  for (int count : {1, 2, 3, 7, 10000}) {
+    std::vector<int> shards_of(all.size(), 0);
+    std::vector<size_t> sizes(static_cast<size_t>(count), 0);
+    for (int index = 0; index < count; ++index) {
+      for (size_t position = 0; position < all.size(); ++position) {
+        if (inShard(position, index, count)) {
+          ++shards_of[position];
+          ++sizes[static_cast<size_t>(index)];
+        }
+      }
+    }
+    EXPECT_TRUE(std::all_of(shards_of.begin(), shards_of.end(), [](int n) { return n == 1; }))
+        << count << " shards";
+    // Balanced: the shards' trial counts differ by one at most.
+    const auto [fewest, most] = std::minmax_element(sizes.begin(), sizes.end());
+    EXPECT_LE(*most - *fewest, 1u) << count << " shards";
+  }
+}
+
+TEST(BenchExperiment, BadFlagsFailWithAMessageNamingTheFlag) {
+  const std::string out = tempDir("refused");
+  const auto fails = [&](const std::string& args, const std::string& message) {
+    const CliResult result = bench("experiment --out " + out + " " + args);
+    EXPECT_EQ(result.status, 2) << args << ": " << result.output;
+    EXPECT_NE(result.output.find(message), std::string::npos) << args << ": " << result.output;
+  };
+  for (const char* shard : {"2/2", "-1/2", "a/2", "0/0", "1", "0/2x", "/2"}) {
+    fails(std::string("--shard ") + shard, "--shard must be i/N with 0 <= i < N");
+  }
+  fails("--experiment E2,E9", "unknown experiment 'E9' (known: E1, E2, E3, E4, E5, T1)");
+  fails("--experiment E2,", "--experiment 'E2,' has an empty item");
+  fails("--method none,bogus", "unknown method 'bogus'");
+  fails("--goal-finding curve", "unknown goal-finding variant 'curve'");
+  fails("--experiment E1 --method random", "--method random is not a method of the selected");
+  fails("--experiment E4 --density 0.3", "--density 0.3 is not a density of the selected");
+  fails("--scenario eth", "--scenario eth is not a scenario of the selected");
+  fails("--experiment E5 --density 0.1", "the selected experiments fly none");
+  fails("--density 0.1,x", "--density 'x' is not a non-negative number");
+  fails("--trials 0", "--trials must be an integer >= 1");
+  fails("--jobs 0", "--jobs must be an integer >= 1");
+  fails("--replans -3", "--replans must be an integer >= 1");
+  fails("--record '('", "--record '(' is not a regular expression");
+  fails("--fast", "unknown option --fast");
+  fails("--experiment E2 --worlds-dir " + tempDir("no_worlds"), "paper");
+  EXPECT_EQ(bench("experiment --experiment E2").status, 2);
+  EXPECT_FALSE(fs::exists(out));
+
+  const auto merge_fails = [&](const std::string& args, const std::string& message) {
+    const CliResult result = bench("merge " + args);
+    EXPECT_EQ(result.status, 2) << args << ": " << result.output;
+    EXPECT_NE(result.output.find(message), std::string::npos) << args << ": " << result.output;
+  };
+  merge_fails("--out " + out, "merge needs at least one IN_DIR");
+  merge_fails(tempDir("a"), "merge needs --out");
+  merge_fails("--out " + out + " " + tempDir("nowhere"), "has no rows/ folder");
+  EXPECT_FALSE(fs::exists(out));
+
+  for (const char* command : {"experiment", "merge"}) {
+    const CliResult help = bench(std::string(command) + " --help");
+    EXPECT_EQ(help.status, 0) << help.output;
+    EXPECT_NE(help.output.find(std::string("usage: thicket-bench ") + command), std::string::npos)
+        << help.output;
+  }
+}
+
+// The trials of the end-to-end tests: two methods on a forest dense enough that they fly
+// different paths, two worlds each, a short replan limit.
+const std::string kSelection =
+    "--experiment E2 --method none,local_exploration --density 0.3 --trials 2 --replans 20";
+const std::vector<std::string> kKeys = {"E2/paper/d0.3/local_exploration/soft/depth/s0",
+                                        "E2/paper/d0.3/local_exploration/soft/depth/s1",
+                                        "E2/paper/d0.3/none/soft/depth/s0",
+                                        "E2/paper/d0.3/none/soft/depth/s1"};
+
+// One run of the selection on two threads, the reference of the others.
+class BenchExperimentRun : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    reference_ = new CliResult(bench("experiment " + kSelection + " --jobs 2 --out " + dir()));
+  }
+  static void TearDownTestSuite() {
+    delete reference_;
+    fs::remove_all(tempDir(""));
+  }
+  static std::string dir() { return tempDir("reference"); }
+  static const CliResult& reference() { return *reference_; }
+
+ private:
+  static CliResult* reference_;
+};
+CliResult* BenchExperimentRun::reference_ = nullptr;
+
+TEST_F(BenchExperimentRun, WritesTheTrialsRowsPathsAndRunLog) {
+  ASSERT_EQ(reference().status, 0) << reference().output;
+  EXPECT_NE(reference().output.find("shard 0/1: 4 trials, 4 run, 0 skipped"), std::string::npos)
+      << reference().output;
+  EXPECT_NE(reference().output.find("collisions of conservative methods: 0 of 4 trials"),
+            std::string::npos)
+      << reference().output;
+  EXPECT_NE(reference().output.find("[E2] 4/4 done (0 resumed), "), std::string::npos)
+      << reference().output;
+  EXPECT_NE(reference().output.find(", last: paper d0.3 "), std::string::npos)
+      << reference().output;
+
+  const Table trials = readCsv(dir() + "/trials.csv");
+  ASSERT_EQ(trials.size(), 5u);
+  const std::vector<std::string> fixed = {
+      "experiment",    "trial",           "seed",        "scenario",     "density",
+      "method",        "goal_finding",    "sensor",      "replan_limit", "success",
+      "collision",     "min_clearance_m", "feasible",    "num_replans",  "distance_to_goal_m",
+      "path_length_m", "straight_line_m", "path_time_s", "solvable",     "wall_time_s",
+      "end_reason"};
+  const std::vector<std::string>& header = trials[0];
+  ASSERT_GT(header.size(), fixed.size());
+  EXPECT_EQ(std::vector<std::string>(header.begin(), header.begin() + 21), fixed);
+  EXPECT_EQ((header.size() - fixed.size()) % 3, 0u);
+  for (const char* column :
+       {"mapper_tsdf_insert_ms_median", "mapper_esdf_update_ms_p95",
+        "local_planner_trajectory_optimization_ms_max", "explorer_goal_selection_ms_median"}) {
+    EXPECT_NE(std::find(header.begin(), header.end(), column), header.end()) << column;
+  }
+  // Sorted by method, then seed; the explorer's stage is empty where there is no explorer.
+  const size_t goal_selection =
+      std::find(header.begin(), header.end(), "explorer_goal_selection_ms_median") - header.begin();
+  for (size_t i = 1; i < trials.size(); ++i) {
+    SCOPED_TRACE(kKeys[i - 1]);
+    const std::vector<std::string>& row = trials[i];
+    ASSERT_EQ(row.size(), header.size());
+    const std::string key = row[0] + "/" + row[3] + "/d" + row[4] + "/" + row[5] + "/" + row[6] +
+                            "/" + row[7] + "/s" + row[2];
+    EXPECT_EQ(key, kKeys[i - 1]);
+    EXPECT_EQ(row[1], row[2]);  // trial t flies seed 0 + t
+    EXPECT_EQ(row[8], "20");
+    EXPECT_EQ(row[10], "0") << "collision";
+    EXPECT_LE(std::stoi(row[13]), 20);
+    EXPECT_EQ(row[goal_selection].empty(), row[5] == "none");
+    EXPECT_TRUE(fs::exists(dir() + "/paths/" + keyFileName(key) + ".csv"));
+  }
+  // The two methods flew differently, or this selection would not tell their rows apart.
+  EXPECT_NE(trials[1][15], trials[3][15]);
+
+  const Table run_log = readCsv(dir() + "/run_log.csv");
+  ASSERT_EQ(run_log.size(), 2u);
+  EXPECT_EQ(run_log[0],
+            (std::vector<std::string>{"started_utc", "wall_s", "command", "jobs", "shard",
+                                      "trials_run", "trials_skipped", "cpu", "cores"}));
+  EXPECT_EQ(run_log[1][2].rfind("thicket-bench experiment --experiment E2", 0), 0u);
+  EXPECT_EQ(run_log[1][3], "2");
+  EXPECT_EQ(run_log[1][4], "0/1");
+  EXPECT_EQ(run_log[1][5], "4");
+  EXPECT_EQ(run_log[1][6], "0");
+  EXPECT_EQ(std::to_string(::sysconf(_SC_NPROCESSORS_ONLN)), run_log[1][8]);
+}
+
+TEST_F(BenchExperimentRun, ResumesAKilledRunWithTheMissingTrialsOnly) {
+  ASSERT_EQ(reference().status, 0) << reference().output;
+  const std::string out = tempDir("resumed");
+  fs::copy(dir(), out, fs::copy_options::recursive);
+  fs::remove(out + "/trials.csv");
+  // A killed run: a row that never came (the second) and a last row torn mid-write.
+  const std::string rows_file = out + "/rows/shard-0-of-1.csv";
+  std::vector<std::string> lines;
+  {
+    std::ifstream file(rows_file);
+    for (std::string line; std::getline(file, line);) lines.push_back(line);
+  }
+  ASSERT_EQ(lines.size(), 5u);
+  std::string killed =
+      lines[0] + "\n" + lines[2] + "\n" + lines[3] + "\n" + lines[4].substr(0, lines[4].size() / 2);
+  writeFile(rows_file, killed);
+
+  const CliResult resumed = bench("experiment " + kSelection + " --jobs 1 --out " + out);
+  ASSERT_EQ(resumed.status, 0) << resumed.output;
+  EXPECT_NE(resumed.output.find("shard 0/1: 4 trials, 2 run, 2 skipped"), std::string::npos)
+      << resumed.output;
+  EXPECT_NE(resumed.output.find("cutting the torn last line"), std::string::npos) << resumed.output;
+  EXPECT_NE(resumed.output.find("[E2] 4/4 done (2 resumed)"), std::string::npos) << resumed.output;
+  EXPECT_EQ(withoutTimes(readCsv(out + "/trials.csv")),
+            withoutTimes(readCsv(dir() + "/trials.csv")));
+  // The new rows start on lines of their own.
+  const Table rows = readCsv(rows_file);
+  EXPECT_EQ(rows.size(), 5u);
+  for (const auto& row : rows) EXPECT_EQ(row.size(), rows[0].size());
+  EXPECT_EQ(readCsv(out + "/run_log.csv").size(), 3u);
+
+  // Run again: nothing is left to do.
+  const CliResult again = bench("experiment " + kSelection + " --out " + out);
+  ASSERT_EQ(again.status, 0) << again.output;
+  EXPECT_NE(again.output.find("shard 0/1: 4 trials, 0 run, 4 skipped"), std::string::npos)
+      << again.output;
+}
+
+// Each shard flies its trials on one thread, the reference on two: the merged rows and the paths
+// are the same.
+TEST_F(BenchExperimentRun, ShardsOnOneThreadMergeIntoTheRowsOfOneRunOnTwo) {
+  ASSERT_EQ(reference().status, 0) << reference().output;
+  const std::string kept = "E2/paper/d0.3/local_exploration/soft/depth/s1";
+  std::vector<std::string> shards;
+  for (int i = 0; i < 2; ++i) {
+    shards.push_back(tempDir("shard" + std::to_string(i)));
+    const CliResult shard =
+        bench("experiment " + kSelection + " --jobs 1 --shard " + std::to_string(i) +
+              "/2 --record 'local_exploration.*s1$' " + "--out " + shards.back());
+    ASSERT_EQ(shard.status, 0) << shard.output;
+    EXPECT_NE(shard.output.find("shard " + std::to_string(i) + "/2: 2 trials, 2 run"),
+              std::string::npos)
+        << shard.output;
+    EXPECT_EQ(readCsv(shards.back() + "/trials.csv").size(), 3u);
+  }
+  const std::string merged = tempDir("merged");
+  const CliResult merge = bench("merge --out " + merged + " " + shards[0] + " " + shards[1]);
+  ASSERT_EQ(merge.status, 0) << merge.output;
+  EXPECT_EQ(withoutTimes(readCsv(merged + "/trials.csv")),
+            withoutTimes(readCsv(dir() + "/trials.csv")));
+  for (const std::string& key : kKeys) {
+    const std::string path = "/paths/" + keyFileName(key) + ".csv";
+    EXPECT_EQ(readFile(merged + path), readFile(dir() + path)) << key;
+  }
+  EXPECT_TRUE(fs::exists(merged + "/logs/" + keyFileName(kept) + ".lcm"));
+  // The shards' run log lines and the merge's.
+  const Table run_log = readCsv(merged + "/run_log.csv");
+  ASSERT_EQ(run_log.size(), 4u);
+  EXPECT_EQ(run_log[3][2].rfind("thicket-bench merge", 0), 0u);
+  EXPECT_EQ(run_log[3][6], "4");
+
+  // Merging again, with a shard twice, changes nothing.
+  const CliResult twice =
+      bench("merge --out " + merged + " " + shards[0] + " " + shards[1] + " " + shards[1]);
+  ASSERT_EQ(twice.status, 0) << twice.output;
+  EXPECT_EQ(withoutTimes(readCsv(merged + "/trials.csv")),
+            withoutTimes(readCsv(dir() + "/trials.csv")));
+}
+
+// --record keeps the graph's traffic of the chosen trials: the log ends with the simulator's
+// trial end, whose mission summary is the trial's row.
+TEST_F(BenchExperimentRun, RecordKeepsTheLogOfTheChosenTrials) {
+  ASSERT_EQ(reference().status, 0) << reference().output;
+  const std::string out = tempDir("recorded");
+  const CliResult run =
+      bench("experiment " + kSelection +
+            " --method local_exploration --record 'local_exploration.*s1$' " + "--out " + out);
+  ASSERT_EQ(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("keeping the logs of 1 trials"), std::string::npos) << run.output;
+  const std::string kept = "E2/paper/d0.3/local_exploration/soft/depth/s1";
+  ASSERT_EQ(std::distance(fs::directory_iterator(out + "/logs"), fs::directory_iterator()), 1);
+
+  LogReader reader(out + "/logs/" + keyFileName(kept) + ".lcm");
+  std::map<std::string, int> channels;
+  std::optional<sim_event_t> end;
+  for (std::optional<LogEvent> event = reader.next(); event; event = reader.next()) {
+    ++channels[event->channel];
+    sim_event_t message;
+    if (event->channel == "SIM_EVENT" && event->decode(message).empty() &&
+        message.type == sim_event_t::TYPE_TRIAL_END) {
+      end = message;
+    }
+  }
+  EXPECT_EQ(reader.error(), "");
+  EXPECT_GT(channels["CAMERA_DEPTH"], 0);
+  EXPECT_GT(channels["EXPLORER_GOAL"] + channels["MODULE_TIMING"], 0);
+  ASSERT_TRUE(end) << "no trial end in the log";
+
+  const Table trials = readCsv(out + "/trials.csv");
+  ASSERT_EQ(trials.size(), 3u);
+  const std::vector<std::string>& row = trials[2];  // seed 1
+  ASSERT_EQ(row[2], "1");
+  EXPECT_EQ(end->num_replans, std::stoi(row[13]));
+  EXPECT_NEAR(end->path_length, std::stod(row[15]), 1e-4);
+  EXPECT_NEAR(end->distance_to_goal, std::stod(row[14]), 1e-4);
+}
+
+TEST(BenchExperiment, ATrialThatCouldNotRunIsRecordedAndTriedAgain) {
+  // A scenario whose trees cannot be placed clear of the start and goal: no world, no trial.
+  const std::string worlds = tempDir("bad_worlds");
+  fs::create_directories(worlds);
+  std::string paper = readFile(std::string(THICKET_SOURCE_DIR) + "/config/worlds/paper.yaml");
+  const size_t keep_clear = paper.find("keep_clear:");
+  ASSERT_NE(keep_clear, std::string::npos);
+  writeFile(worlds + "/paper.yaml", paper.substr(0, keep_clear) + "keep_clear: 50.0\n");
+
+  const std::string out = tempDir("could_not_run");
+  const std::string selection =
+      "experiment --experiment E1 --goal-finding line --density 0.1 --trials 1 --replans 5 ";
+  const CliResult failed = bench(selection + "--worlds-dir " + worlds + " --out " + out);
+  EXPECT_EQ(failed.status, 1) << failed.output;
+  EXPECT_NE(failed.output.find("1 run, 0 skipped"), std::string::npos) << failed.output;
+  EXPECT_NE(failed.output.find("1 could not run"), std::string::npos) << failed.output;
+  Table trials = readCsv(out + "/trials.csv");
+  ASSERT_EQ(trials.size(), 2u);
+  EXPECT_EQ(trials[1][20].rfind("error: ", 0), 0u) << trials[1][20];
+  EXPECT_NE(trials[1][20].find("keep_clear"), std::string::npos) << trials[1][20];
+
+  const CliResult retried = bench(selection + "--out " + out);
+  EXPECT_EQ(retried.status, 0) << retried.output;
+  EXPECT_NE(retried.output.find("1 run, 0 skipped"), std::string::npos) << retried.output;
+  trials = readCsv(out + "/trials.csv");
+  ASSERT_EQ(trials.size(), 2u);
+  EXPECT_EQ(trials[1][20].rfind("error: ", 0), std::string::npos) << trials[1][20];
+  EXPECT_EQ(trials[1][0] + trials[1][5] + trials[1][6], "E1noneline");
+}
+
+TEST(BenchExperiment, MergeRefusesRowsOfAnotherProgram) {
+  const std::string input = tempDir("foreign");
+  fs::create_directories(input + "/rows");
+  writeFile(input + "/rows/shard-0-of-1.csv", "experiment,trial,seed\nE2,0,0\n");
+  const std::string out = tempDir("foreign_merged");
+  const CliResult merge = bench("merge --out " + out + " " + input);
+  EXPECT_EQ(merge.status, 1) << merge.output;
+  EXPECT_NE(merge.output.find("shard-0-of-1.csv: not a rows file"), std::string::npos)
+      << merge.output;
+  EXPECT_FALSE(fs::exists(out + "/trials.csv"));
+
+  // Nor does a run append to it.
+  const CliResult run = bench(
+      "experiment --experiment E2 --method none --density 0.1 --trials 1 "
+      "--out " +
+      input);
+  EXPECT_EQ(run.status, 1) << run.output;
+  EXPECT_NE(run.output.find("not a rows file"), std::string::npos) << run.output;
+}
+
+TEST(BenchExperimentCsv, ReadsQuotedCellsAndFindsATornTail) {
+  const std::string complete = "a,\"b,c\",\"d\"\"e\"\nf,,\"g\nh\"\r\n";
+  const CsvText csv = parseCsv(complete + "i,j");
+  ASSERT_EQ(csv.records.size(), 2u);
+  EXPECT_EQ(csv.records[0], (std::vector<std::string>{"a", "b,c", "d\"e"}));
+  EXPECT_EQ(csv.records[1], (std::vector<std::string>{"f", "", "g\nh"}));
+  EXPECT_TRUE(csv.torn_tail);
+  EXPECT_EQ(csv.complete_bytes, complete.size());
+  EXPECT_FALSE(parseCsv("a\n").torn_tail);
+  EXPECT_TRUE(parseCsv("\"a\n").torn_tail);  // a quote never closed
+}
+
+}  // namespace
+}  // namespace thicket::bench

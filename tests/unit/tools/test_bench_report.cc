@@ -1,0 +1,674 @@
+// The benchmark report: Wilson intervals, the CSV reader's refusals, and summary.md and the
+// figures written from a hand-made output folder whose every number is known.
+#include "report.h"
+
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "temp_dir_test.h"
+
+namespace thicket::bench {
+namespace {
+
+// ---- Wilson intervals, against values computed by hand (z = 1.959964) ----
+
+TEST(WilsonInterval, MatchesHandComputedValues) {
+  const struct {
+    int k, n;
+    double low, high;
+  } cases[] = {{8, 10, 0.4902, 0.9433},
+               {5, 10, 0.2366, 0.7634},
+               {0, 10, 0.0, 0.2775},
+               {10, 10, 0.7225, 1.0},
+               {46, 50, 0.8116, 0.9685}};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(std::to_string(c.k) + "/" + std::to_string(c.n));
+    const Interval ci = wilsonInterval(c.k, c.n);
+    EXPECT_NEAR(ci.low, c.low, 5e-5);
+    EXPECT_NEAR(ci.high, c.high, 5e-5);
+  }
+}
+
+TEST(WilsonInterval, NoTrialsKnowNothing) {
+  const Interval ci = wilsonInterval(0, 0);
+  EXPECT_EQ(ci.low, 0.0);
+  EXPECT_EQ(ci.high, 1.0);
+}
+
+// ---- the hand-made output folder ----
+
+// One trials.csv row; the defaults are a trial that ran and failed.
+struct Row {
+  std::string experiment = "E2", scenario = "paper";
+  double density = 0.1;
+  std::string method = "none", goal_finding = "soft", sensor = "depth";
+  int trial = 0;
+  int seed = 0;
+  int replan_limit = 120;
+  bool success = false, collision = false;
+  double length = 10;
+  double path_time = 10, wall_time = 2;
+  bool solvable = true;
+  std::string end_reason = "replan limit";
+  std::map<std::string, std::array<double, 3>> timings;  // median, p95, max [ms]
+};
+
+const std::vector<std::string> kStages = {"explorer_goal_selection", "mapper_tsdf_insert"};
+
+std::string header() {
+  std::string text =
+      "experiment,trial,seed,scenario,density,method,goal_finding,sensor,replan_limit,success,"
+      "collision,min_clearance_m,feasible,num_replans,distance_to_goal_m,path_length_m,"
+      "straight_line_m,path_time_s,solvable,wall_time_s,end_reason";
+  for (const std::string& stage : kStages) {
+    text += "," + stage + "_ms_median," + stage + "_ms_p95," + stage + "_ms_max";
+  }
+  return text + "\n";
+}
+
+std::string quoted(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+std::string line(const Row& r) {
+  char density[32];
+  std::snprintf(density, sizeof(density), "%g", r.density);
+  std::ostringstream s;
+  s << r.experiment << "," << r.trial << "," << r.seed << "," << r.scenario << "," << density << ","
+    << r.method << "," << r.goal_finding << "," << r.sensor << "," << r.replan_limit << ","
+    << r.success << "," << r.collision << ",0.8,1,12," << (r.success ? 0.1 : 5.0) << "," << r.length
+    << ",13," << r.path_time << "," << r.solvable << "," << r.wall_time << ","
+    << quoted(r.end_reason);
+  for (const std::string& stage : kStages) {
+    const auto found = r.timings.find(stage);
+    for (int k = 0; k < 3; ++k) {
+      s << ",";
+      if (found != r.timings.end()) s << found->second[static_cast<size_t>(k)];
+    }
+  }
+  return s.str() + "\n";
+}
+
+Row failedToRun(Row r) {
+  r.end_reason = "error: cannot load \"forest\", bad key";
+  r.success = false;
+  r.path_time = 0;
+  r.wall_time = 0;
+  r.timings.clear();
+  return r;
+}
+
+// E1: line 8/10 at 0.1 and 0/10 at 0.2, soft 10/10 at 0.1, and one line trial that could not run.
+// E2: see e2Rows. E4: forest50, none and local_exploration at 0.1 and 0.2, seeds 0 and 1, with
+// timings; one more trial that could not run.
+std::vector<Row> e1Rows() {
+  std::vector<Row> rows;
+  for (int i = 0; i < 10; ++i) {
+    Row r;
+    r.experiment = "E1";
+    r.method = "none";
+    r.replan_limit = 60;
+    r.trial = i;
+    r.seed = i;
+    r.goal_finding = "line";
+    r.success = i < 8;
+    r.end_reason = r.success ? "goal reached" : "replan limit";
+    rows.push_back(r);
+    r.density = 0.2;
+    r.success = false;
+    r.end_reason = "replan limit";
+    rows.push_back(r);
+    r.density = 0.1;
+    r.goal_finding = "soft";
+    r.success = true;
+    r.end_reason = "goal reached";
+    rows.push_back(r);
+  }
+  Row failed;
+  failed.experiment = "E1";
+  failed.goal_finding = "line";
+  failed.trial = 10;
+  failed.seed = 10;
+  rows.push_back(failedToRun(failed));
+  return rows;
+}
+
+// Seeds 0..4 at 0.1 and 0.2; seed 4 is unsolvable.
+//   random 0.1: seeds 0-3 succeed (20, 22, 24, 26 m); 0.2: seeds 0, 1 (30, 34 m).
+//   local_exploration 0.1: seeds 1-4 succeed (15, 16, 17, 18 m); 0.2: seeds 0, 2 (25, 20 m).
+//   Both solved: 0.1 seeds 1-3 (random 24 m, local 16 m), 0.2 seed 0 (30 m, 25 m).
+//   rrt_star_optimistic collides at 0.1 seed 0, nbvp at 0.1 seed 1.
+// Plus random and local_exploration seed 5 at 0.2 that could not run.
+std::vector<Row> e2Rows() {
+  std::vector<Row> rows;
+  const std::map<std::string, std::map<double, std::map<int, double>>> successes = {
+      {"random", {{0.1, {{0, 20}, {1, 22}, {2, 24}, {3, 26}}}, {0.2, {{0, 30}, {1, 34}}}}},
+      {"local_exploration",
+       {{0.1, {{1, 15}, {2, 16}, {3, 17}, {4, 18}}}, {0.2, {{0, 25}, {2, 20}}}}},
+      {"rrt_star_optimistic", {{0.1, {{1, 21}}}}},
+      {"nbvp", {{0.2, {{3, 19}}}}}};
+  for (const auto& [method, by_density] : successes) {
+    for (double density : {0.1, 0.2}) {
+      for (int seed = 0; seed < 5; ++seed) {
+        Row r;
+        r.method = method;
+        r.density = density;
+        r.trial = seed;
+        r.seed = seed;
+        r.solvable = seed != 4;
+        const auto found = by_density.find(density);
+        if (found != by_density.end() && found->second.count(seed)) {
+          r.success = true;
+          r.length = found->second.at(seed);
+          r.end_reason = "goal reached";
+        } else {
+          r.length = 99;  // an unsuccessful trial's length never counts
+        }
+        if ((method == "rrt_star_optimistic" || method == "nbvp") && density == 0.1 &&
+            seed == (method == "nbvp" ? 1 : 0)) {
+          r.collision = true;
+          r.end_reason = "collision";
+        }
+        rows.push_back(r);
+      }
+    }
+  }
+  for (const char* method : {"random", "local_exploration"}) {
+    Row r;
+    r.method = method;
+    r.density = 0.2;
+    r.trial = 5;
+    r.seed = 5;
+    rows.push_back(failedToRun(r));
+  }
+  return rows;
+}
+
+// Trial i (0..7) of E4 has mapper_tsdf_insert median 1 + i, p95 2 + 2i, max 10 + i except one
+// max of 99; local_exploration trials also have explorer_goal_selection (median 0.5 + i).
+std::vector<Row> e4Rows() {
+  std::vector<Row> rows;
+  int i = 0;
+  for (const char* method : {"none", "local_exploration"}) {
+    for (double density : {0.1, 0.2}) {
+      for (int seed = 0; seed < 2; ++seed, ++i) {
+        Row r;
+        r.experiment = "E4";
+        r.scenario = "forest50";
+        r.method = method;
+        r.density = density;
+        r.trial = seed;
+        r.seed = seed;
+        r.replan_limit = 500;
+        r.success = std::string(method) == "local_exploration" || seed == 0;
+        r.end_reason = r.success ? "goal reached" : "replan limit";
+        r.length = 70 + i;
+        r.timings["mapper_tsdf_insert"] = {1.0 + i, 2.0 + 2 * i, i == 5 ? 99.0 : 10.0 + i};
+        if (std::string(method) == "local_exploration") {
+          r.timings["explorer_goal_selection"] = {0.5 + i, 1.0 + i, 3.0 + i};
+        }
+        rows.push_back(r);
+      }
+    }
+  }
+  Row failed;
+  failed.experiment = "E4";
+  failed.scenario = "forest50";
+  failed.method = "none";
+  failed.density = 0.2;
+  failed.trial = 2;
+  failed.seed = 2;
+  rows.push_back(failedToRun(failed));
+  return rows;
+}
+
+void write(const std::string& path, const std::string& text) {
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path());
+  std::ofstream file(path, std::ios::binary);
+  file << text;
+  ASSERT_TRUE(file.good()) << path;
+}
+
+std::string read(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(file)), {});
+}
+
+// A straight path from the forest's start corner toward its goal.
+void writePath(const std::string& path, double offset) {
+  std::string text = "t,x,y,z,yaw\n";
+  for (int k = 0; k <= 100; ++k) {
+    const double s = k / 100.0;
+    text += std::to_string(0.01 * k) + "," + std::to_string(1 + 48 * s) + "," +
+            std::to_string(1 + 48 * s + offset * std::sin(3.14159 * s)) + ",1.5,0.785\n";
+  }
+  write(path, text);
+}
+
+class BenchReport : public thicket::testing::TempDirTest {
+ protected:
+  // The whole folder: trials.csv of E1, E2 and E4, paths of E4 at 0.2 (seed 0 flown by none
+  // only, seed 1 by both methods), run_log.csv and e5_subsampling.csv.
+  std::string writeFolder() {
+    const std::string out = tempPath("out");
+    std::string text = header();
+    for (const auto& rows : {e1Rows(), e2Rows(), e4Rows()}) {
+      for (const Row& r : rows) text += line(r);
+    }
+    write(out + "/trials.csv", text);
+    writePath(out + "/paths/E4-forest50-d0.2-none-soft-depth-s0.csv", 0);
+    writePath(out + "/paths/E4-forest50-d0.2-none-soft-depth-s1.csv", 2);
+    writePath(out + "/paths/E4-forest50-d0.2-local_exploration-soft-depth-s1.csv", -2);
+    write(out + "/run_log.csv",
+          "started_utc,wall_s,command,jobs,shard,trials_run,trials_skipped,cpu,cores\n"
+          "2024-05-01T10:00:00Z,100,\"thicket-bench experiments --out x\",2,1/1,139,0,"
+          "\"Intel(R) Xeon(R), 2.2GHz\",2\n"
+          "2024-05-01T10:02:00Z,3.5,thicket-bench merge,1,,0,0,Intel(R) Xeon(R),2\n");
+    write(out + "/e5_subsampling.csv",
+          "fraction,stride,poses,mean_abs_error,p95_abs_error,max_abs_error,median_us,speedup\n"
+          "1,1,1000,0,0,0,90,1\n"
+          "0.05,20,1000,0.0102,0.03,0.08,30,3\n"
+          "0.5,2,1000,0.002,0.005,0.01,50,1.8\n");
+    return out;
+  }
+};
+
+// ---- reading summary.md back ----
+
+using Table = std::vector<std::vector<std::string>>;  // the header, then the rows
+
+std::vector<std::string> splitRow(const std::string& text) {
+  std::vector<std::string> cells;
+  std::string cell;
+  for (size_t i = 1; i < text.size(); ++i) {
+    if (text[i] == '\\' && i + 1 < text.size() && text[i + 1] == '|') {
+      cell += '|';
+      ++i;
+    } else if (text[i] == '|') {
+      const size_t first = cell.find_first_not_of(' '), last = cell.find_last_not_of(' ');
+      cells.push_back(first == std::string::npos ? "" : cell.substr(first, last - first + 1));
+      cell.clear();
+    } else {
+      cell += text[i];
+    }
+  }
+  return cells;
+}
+
+// The first table after the line `heading`; empty when there is none.
+Table tableAfter(const std::string& markdown, const std::string& heading) {
+  const size_t at = markdown.find("\n" + heading + "\n");
+  if (at == std::string::npos) return {};
+  std::istringstream lines(markdown.substr(at + heading.size() + 2));
+  Table table;
+  for (std::string text; std::getline(lines, text);) {
+    if (text.rfind("#", 0) == 0) break;
+    if (text.rfind("|", 0) != 0) {
+      if (!table.empty()) break;
+      continue;
+    }
+    if (text.find("---|") != std::string::npos) continue;
+    table.push_back(splitRow(text));
+  }
+  return table;
+}
+
+// The cell of the row whose first cell is `row` in the column headed `column`.
+std::string cell(const Table& table, const std::string& row, const std::string& column) {
+  if (table.empty()) return "<no table>";
+  size_t c = 0;
+  while (c < table[0].size() && table[0][c] != column) ++c;
+  if (c == table[0].size()) return "<no column " + column + ">";
+  for (size_t r = 1; r < table.size(); ++r) {
+    if (!table[r].empty() && table[r][0] == row && c < table[r].size()) return table[r][c];
+  }
+  return "<no row " + row + ">";
+}
+
+struct SuccessCell {
+  int k = -1, n = -1, percent = -1, low = -1, high = -1;
+};
+
+SuccessCell success(const std::string& text) {
+  static const std::regex pattern(R"((\d+)/(\d+) = (\d+) % \[(\d+), (\d+)\])");
+  std::smatch m;
+  SuccessCell parsed;
+  if (std::regex_match(text, m, pattern)) {
+    parsed = {std::stoi(m[1]), std::stoi(m[2]), std::stoi(m[3]), std::stoi(m[4]), std::stoi(m[5])};
+  }
+  return parsed;
+}
+
+#define EXPECT_SUCCESS(text, k_, n_, percent_, low_, high_) \
+  do {                                                      \
+    const SuccessCell s = success(text);                    \
+    EXPECT_EQ(s.k, k_) << (text);                           \
+    EXPECT_EQ(s.n, n_) << (text);                           \
+    EXPECT_EQ(s.percent, percent_) << (text);               \
+    EXPECT_EQ(s.low, low_) << (text);                       \
+    EXPECT_EQ(s.high, high_) << (text);                     \
+  } while (false)
+
+double number(const std::string& text) {
+  try {
+    return std::stod(text);
+  } catch (...) {
+    ADD_FAILURE() << "not a number: '" << text << "'";
+    return NAN;
+  }
+}
+
+TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
+  const std::string out = writeFolder();
+  const std::string error = writeReport(out);
+  ASSERT_EQ(error, "");
+  const std::string md = read(out + "/summary.md");
+  ASSERT_FALSE(md.empty());
+
+  // Contents: trials per experiment, those that could not run listed by key.
+  const Table contents = tableAfter(md, "## Contents");
+  EXPECT_EQ(cell(contents, "E1", "trials"), "31");
+  EXPECT_EQ(cell(contents, "E1", "could not run"), "1");
+  EXPECT_EQ(cell(contents, "E2", "trials"), "42");
+  EXPECT_EQ(cell(contents, "E2", "ran"), "40");
+  EXPECT_EQ(cell(contents, "E4", "scenarios"), "forest50");
+  EXPECT_EQ(cell(contents, "E4", "could not run"), "1");
+  for (const char* key :
+       {"E1/paper/d0.1/none/line/depth/s10", "E2/paper/d0.2/random/soft/depth/s5",
+        "E2/paper/d0.2/local_exploration/soft/depth/s5", "E4/forest50/d0.2/none/soft/depth/s2"}) {
+    EXPECT_NE(md.find(std::string("- `") + key + "`"), std::string::npos) << key;
+  }
+  EXPECT_NE(md.find("error: cannot load \"forest\", bad key"), std::string::npos);
+  const Table runs = tableAfter(md, "### Invocations (run_log.csv)");
+  ASSERT_EQ(runs.size(), 3u);
+  EXPECT_EQ(runs[1][1], "100.0 s");
+  EXPECT_EQ(runs[1][7], "Intel(R) Xeon(R), 2.2GHz");
+  EXPECT_EQ(runs[1][8], "2");
+
+  // Throughput: every trial that ran flew 10 s in 2 s; the run took 100 s for 78 trials' 780 s.
+  const Table throughput = tableAfter(md, "## Throughput");
+  EXPECT_EQ(cell(throughput, "all", "simulated [s]"), "780");
+  EXPECT_EQ(cell(throughput, "E2", "simulated s per wall s, per thread"), "5.00");
+  EXPECT_NE(md.find("7.80 simulated s per wall s"), std::string::npos);
+
+  // E1: line 8/10 = 80 % [49, 94] at 0.1 (the trial that could not run is not counted).
+  const Table e1 = tableAfter(md, "## E1: optimization only, success per goal finding and density");
+  ASSERT_EQ(e1.size(), 3u);
+  EXPECT_EQ(e1[0], (std::vector<std::string>{"density", "line", "soft"}));
+  EXPECT_SUCCESS(cell(e1, "0.1", "line"), 8, 10, 80, 49, 94);
+  EXPECT_SUCCESS(cell(e1, "0.2", "line"), 0, 10, 0, 0, 28);
+  EXPECT_SUCCESS(cell(e1, "0.1", "soft"), 10, 10, 100, 72, 100);
+  EXPECT_EQ(cell(e1, "0.2", "soft"), "–");
+
+  // E2: success per method and density, collisions, success on solvable worlds, path lengths.
+  const Table e2 =
+      tableAfter(md, "## E2: goal-selection strategies, success per method and density");
+  EXPECT_EQ(e2[0], (std::vector<std::string>{"density", "random", "rrt_star_optimistic", "nbvp",
+                                             "local_exploration"}));
+  EXPECT_SUCCESS(cell(e2, "0.1", "random"), 4, 5, 80, 38, 96);
+  EXPECT_SUCCESS(cell(e2, "0.2", "local_exploration"), 2, 5, 40, 12, 77);
+  EXPECT_SUCCESS(cell(e2, "0.2", "rrt_star_optimistic"), 0, 5, 0, 0, 43);
+  const Table per_method = tableAfter(md, "### Per method, all densities");
+  EXPECT_EQ(cell(per_method, "rrt_star_optimistic", "collisions"), "1");
+  EXPECT_EQ(cell(per_method, "nbvp", "collisions"), "1");
+  EXPECT_EQ(cell(per_method, "nbvp", "zero-collision target"), "MISSED");
+  EXPECT_EQ(cell(per_method, "random", "zero-collision target"), "met");
+  EXPECT_EQ(
+      cell(per_method, "rrt_star_optimistic", "zero-collision target").rfind("not required", 0),
+      0u);
+  EXPECT_EQ(cell(per_method, "random", "solvable worlds"), "8");
+  EXPECT_SUCCESS(cell(per_method, "random", "success"), 6, 10, 60, 31, 83);
+  EXPECT_SUCCESS(cell(per_method, "local_exploration", "success on solvable worlds"), 5, 8, 63, 31,
+                 86);
+  // random's successful lengths 20, 22, 24, 26, 30, 34: thicket::median takes the upper middle.
+  EXPECT_EQ(cell(per_method, "random", "median path length [m]"), "26.00");
+  EXPECT_EQ(cell(per_method, "local_exploration", "median path length [m]"), "18.00");
+  const Table solvable = tableAfter(md, "### Success on solvable worlds only");
+  EXPECT_SUCCESS(cell(solvable, "0.1", "local_exploration"), 3, 4, 75, 30, 95);
+  EXPECT_SUCCESS(cell(solvable, "0.1", "random"), 4, 4, 100, 51, 100);
+
+  // E3: only the worlds both solved.
+  const Table e3 = tableAfter(md, "## E3: path length, random vs local_exploration");
+  EXPECT_EQ(cell(e3, "0.1", "worlds both solved"), "3");
+  EXPECT_EQ(cell(e3, "0.1", "random mean [m]"), "24.00");
+  EXPECT_EQ(cell(e3, "0.1", "local_exploration mean [m]"), "16.00");
+  EXPECT_EQ(cell(e3, "0.2", "worlds both solved"), "1");
+  EXPECT_EQ(cell(e3, "0.2", "ratio (local_exploration / random)"), "0.833");
+  EXPECT_EQ(cell(e3, "all", "worlds both solved"), "4");
+  EXPECT_EQ(cell(e3, "all", "random mean [m]"), "25.50");
+  EXPECT_EQ(cell(e3, "all", "local_exploration mean [m]"), "18.25");
+  EXPECT_NEAR(number(cell(e3, "all", "ratio (local_exploration / random)")), 18.25 / 25.5, 5e-4);
+  EXPECT_EQ(cell(e3, "all", "local_exploration shorter by"), "28.4 %");
+
+  // E4: per method and density; none succeeds on seed 0 only.
+  const Table e4 = tableAfter(md, "## E4: long forest, success per method");
+  EXPECT_SUCCESS(cell(e4, "none", "success d=0.2"), 1, 2, 50, 9, 91);
+  EXPECT_SUCCESS(cell(e4, "local_exploration", "success d=0.1"), 2, 2, 100, 34, 100);
+  EXPECT_EQ(cell(e4, "none", "collisions"), "0");
+  EXPECT_EQ(cell(e4, "local_exploration", "median path length d=0.2 [m]"), "77.00");
+  // The top-down figure: seed 0 was flown by none only, seed 1 by both.
+  EXPECT_NE(md.find("forest50 at density 0.2, seed 1 ("), std::string::npos);
+  EXPECT_NE(md.find("flown by none, local_exploration."), std::string::npos);
+
+  // T1: median of per-trial medians (1..8 -> 5), median of p95s (2..16 -> 10), max of maxes.
+  const Table t1 = tableAfter(md, "## T1: per-stage timings on the E4 trials");
+  EXPECT_EQ(cell(t1, "mapper_tsdf_insert", "trials"), "8");
+  EXPECT_EQ(number(cell(t1, "mapper_tsdf_insert", "median [ms]")), 5.0);
+  EXPECT_EQ(number(cell(t1, "mapper_tsdf_insert", "p95 [ms]")), 10.0);
+  EXPECT_EQ(number(cell(t1, "mapper_tsdf_insert", "max [ms]")), 99.0);
+  EXPECT_EQ(cell(t1, "mapper_tsdf_insert", "paper [ms]"), "27.0 (TSDF insert)");
+  EXPECT_EQ(cell(t1, "mapper_tsdf_insert", "paper / median"), "5.4×");
+  // local_exploration trials 4..7: medians 4.5, 5.5, 6.5, 7.5 -> 6.5.
+  EXPECT_EQ(cell(t1, "explorer_goal_selection", "trials"), "4");
+  EXPECT_EQ(number(cell(t1, "explorer_goal_selection", "median [ms]")), 6.5);
+  EXPECT_EQ(cell(t1, "mapper_esdf_update", "trials"), "<no row mapper_esdf_update>");
+
+  // E5: sorted by fraction.
+  const Table e5 = tableAfter(md, "## E5: exploration-gain subsampling");
+  ASSERT_EQ(e5.size(), 4u);
+  EXPECT_EQ(e5[1][0], "0.05");
+  EXPECT_EQ(cell(e5, "0.05", "mean abs error"), "0.0102");
+  EXPECT_EQ(cell(e5, "0.05", "speed-up"), "3.00×");
+  EXPECT_EQ(md.find("## Problems"), std::string::npos);
+}
+
+bool isPng(const std::string& path) {
+  const std::string bytes = read(path);
+  return bytes.size() > 8 && bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0;
+}
+
+// scripts/setup installs python3-matplotlib; without it this test fails with figures.py's error.
+TEST_F(BenchReport, DrawsEveryFigureAsPng) {
+  const std::string out = writeFolder();
+  ASSERT_EQ(writeReport(out), "");
+  const std::string md = read(out + "/summary.md");
+  for (const char* figure : {"e1_success.png", "e2_success.png", "e3_path_length.png",
+                             "e4_success.png", "e4_forest.png", "e5_subsampling.png"}) {
+    SCOPED_TRACE(figure);
+    const std::string path = out + "/figures/" + figure;
+    ASSERT_TRUE(std::filesystem::exists(path));
+    EXPECT_GT(std::filesystem::file_size(path), 10000u);
+    EXPECT_TRUE(isPng(path));
+    EXPECT_NE(md.find(std::string("](figures/") + figure + ")"), std::string::npos);
+  }
+  // The forest figure's world is the generated forest50 world of density 0.2, seed 1.
+  const std::string world = read(out + "/figures/e4_forest_world.csv");
+  EXPECT_EQ(world.rfind("kind,x,y,z,radius,height\nbounds_min,0.000000,0.000000,0.000000,,\n", 0),
+            0u);
+  size_t cylinders = 0;
+  for (size_t at = world.find("\ncylinder,"); at != std::string::npos;
+       at = world.find("\ncylinder,", at + 1)) {
+    ++cylinders;
+  }
+  EXPECT_EQ(cylinders, 423u);  // floor(0.2 × 46 × 46)
+  EXPECT_FALSE(std::filesystem::exists(out + "/figures/figures.log"));
+}
+
+TEST_F(BenchReport, AbsentExperimentsAreOmitted) {
+  const std::string out = tempPath("out");
+  std::string text = header();
+  for (const Row& r : e1Rows()) text += line(r);
+  write(out + "/trials.csv", text);
+  ASSERT_EQ(writeReport(out), "");
+  const std::string md = read(out + "/summary.md");
+  EXPECT_NE(md.find("## E1:"), std::string::npos);
+  for (const char* section : {"## E2", "## E3", "## E4", "## T1", "## E5", "### Invocations"}) {
+    EXPECT_EQ(md.find(section), std::string::npos) << section;
+  }
+  EXPECT_TRUE(isPng(out + "/figures/e1_success.png"));
+  for (const char* figure : {"e2_success.png", "e3_path_length.png", "e4_success.png",
+                             "e4_forest.png", "e5_subsampling.png"}) {
+    EXPECT_FALSE(std::filesystem::exists(out + "/figures/" + figure)) << figure;
+  }
+}
+
+TEST_F(BenchReport, SummaryIsWrittenWhenFiguresFail) {
+  const std::string out = writeFolder();
+  ReportOptions options;
+  options.figures_script = tempPath("no_such_figures.py");
+  const std::string error = writeReport(out, options);
+  EXPECT_NE(error.find("no_such_figures.py"), std::string::npos) << error;
+  EXPECT_NE(error.find("exited with status 2"), std::string::npos) << error;
+  const std::string md = read(out + "/summary.md");
+  EXPECT_NE(md.find("## E2:"), std::string::npos);
+  EXPECT_NE(md.find("(Figure e2_success.png was not drawn: see Problems.)"), std::string::npos);
+  EXPECT_NE(md.find("## Problems"), std::string::npos);
+
+  options.python = tempPath("no_such_python");
+  const std::string spawn_error = writeReport(out, options);
+  EXPECT_NE(spawn_error.find("cannot run " + options.python), std::string::npos) << spawn_error;
+}
+
+TEST_F(BenchReport, MissingTrialsWriteNothing) {
+  const std::string out = tempPath("empty");
+  std::filesystem::create_directories(out);
+  const std::string error = writeReport(out);
+  EXPECT_EQ(error, "cannot read " + out + "/trials.csv");
+  EXPECT_FALSE(std::filesystem::exists(out + "/summary.md"));
+}
+
+// ---- malformed files ----
+
+TEST_F(BenchReport, CsvReaderHandlesQuotesAndCrlf) {
+  const std::string path = tempPath("quoted.csv");
+  write(path, "a,b,c\r\n1,\"x, \"\"y\"\"\nz\",\r\n\r\n\"\",2,3");
+  const auto table = readCsv(path);
+  ASSERT_TRUE(table) << table.error();
+  EXPECT_EQ(table->header, (std::vector<std::string>{"a", "b", "c"}));
+  ASSERT_EQ(table->rows.size(), 2u);
+  EXPECT_EQ(table->rows[0].cells, (std::vector<std::string>{"1", "x, \"y\"\nz", ""}));
+  EXPECT_EQ(table->rows[0].line, 2);
+  EXPECT_EQ(table->rows[1].cells, (std::vector<std::string>{"", "2", "3"}));
+  EXPECT_EQ(table->rows[1].line, 5);
+}
+
+TEST_F(BenchReport, MalformedCsvNamesLineAndColumn) {
+  const struct {
+    const char* text;
+    const char* error;
+  } cases[] = {
+      {"a,b\n1,2\n3,\"4\n", "line 3, column 2: the quote opened here is never closed"},
+      {"a,b\n1,2\"x\"\n", "line 2, column 2: a quote inside a field that did not start with one"},
+      {"a,b\n\"1\"x,2\n", "line 2, column 1: text after a closing quote"},
+      {"a,b\n1,2\n3\n", "line 3: 1 cells, the header has 2"},
+      {"a,b\r\n1,2,3\r\n", "line 2: 3 cells, the header has 2"},
+      {"", "empty, not even a header"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.text);
+    const std::string path = tempPath("bad.csv");
+    write(path, c.text);
+    const auto table = readCsv(path);
+    ASSERT_FALSE(table);
+    EXPECT_EQ(table.error(), path + (c.error[0] == 'e' ? ": " : " ") + c.error);
+  }
+}
+
+// `row` (a line of trials.csv) with cell `column` replaced by `value`.
+std::string replaceCell(const std::string& row, size_t column, const std::string& value) {
+  std::vector<std::string> cells;
+  std::string cell;
+  std::istringstream s(row.substr(0, row.size() - 1));
+  while (std::getline(s, cell, ',')) cells.push_back(cell);
+  cells.resize(27);  // getline drops the empty cells at the end
+  cells[column] = value;
+  std::string text;
+  for (size_t i = 0; i < cells.size(); ++i) text += (i ? "," : "") + cells[i];
+  return text + "\n";
+}
+
+TEST_F(BenchReport, BadTrialCellsNameLineAndColumn) {
+  Row first;
+  first.success = true;
+  first.end_reason = "goal reached";
+  Row second = first;
+  second.trial = 1;
+  second.seed = 1;
+  second.timings["mapper_tsdf_insert"] = {1, 2, 3};
+  const struct {
+    size_t column;
+    const char* value;
+    const char* error;
+  } cases[] = {
+      {15, "abc", "line 3, column 16 (path_length_m): 'abc' is not a finite number"},
+      {15, "nan", "line 3, column 16 (path_length_m): 'nan' is not a finite number"},
+      {15, "", "line 3, column 16 (path_length_m): '' is not a finite number"},
+      {9, "2", "line 3, column 10 (success): '2' is not 0 or 1"},
+      {13, "1.5", "line 3, column 14 (num_replans): '1.5' is not an integer"},
+      {26, "x", "line 3, column 27 (mapper_tsdf_insert_ms_max): 'x' is not a finite number"},
+      {4, "0.1e", "line 3, column 5 (density): '0.1e' is not a finite number"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.error);
+    const std::string out = tempPath("bad");
+    write(out + "/trials.csv",
+          header() + line(first) + replaceCell(line(second), c.column, c.value));
+    EXPECT_EQ(writeReport(out), out + "/trials.csv " + c.error);
+    EXPECT_FALSE(std::filesystem::exists(out + "/summary.md"));
+  }
+}
+
+TEST_F(BenchReport, RefusesMissingColumnsAndRepeatedTrials) {
+  const std::string out = tempPath("out");
+  std::string text = header();
+  text.replace(text.find("solvable,"), 9, "solved,");
+  write(out + "/trials.csv", text);
+  EXPECT_EQ(writeReport(out), out + "/trials.csv: the header has no column solvable");
+
+  Row r;
+  write(out + "/trials.csv", header() + line(r) + line(r));
+  EXPECT_EQ(
+      writeReport(out),
+      out + "/trials.csv line 3: trial E2/paper/d0.1/none/soft/depth/s0 is already on line 2");
+}
+
+TEST_F(BenchReport, BadRunLogIsReportedButTheSummaryWritten) {
+  const std::string out = tempPath("out");
+  write(out + "/trials.csv", header() + line(Row{}));
+  write(out + "/run_log.csv",
+        "started_utc,wall_s,command,jobs,shard,trials_run,trials_skipped,cpu,cores\n"
+        "2024-05-01T10:00:00Z,long,x,2,1/1,1,0,cpu,2\n");
+  const std::string error = writeReport(out);
+  EXPECT_NE(
+      error.find(out + "/run_log.csv line 2, column 2 (wall_s): 'long' is not a finite number"),
+      std::string::npos)
+      << error;
+  const std::string md = read(out + "/summary.md");
+  EXPECT_NE(md.find("## E2:"), std::string::npos);
+  EXPECT_NE(md.find("## Problems"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace thicket::bench

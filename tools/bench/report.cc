@@ -1,0 +1,1124 @@
+#include "report.h"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <utility>
+
+#include "thicket/common/statistics.h"
+#include "thicket/sim/world.h"
+#include "trials.h"
+
+extern char** environ;
+
+namespace thicket::bench {
+namespace {
+
+// ---- reading ----
+
+// Bad input found while reading a file; caught in writeReport and returned as its message.
+struct InputError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+template <class... Args>
+std::string print(const char* spec, Args... args) {
+  char text[256];
+  std::snprintf(text, sizeof(text), spec, args...);
+  return text;
+}
+
+std::string where(const std::string& file, int line, size_t column) {
+  return file + " line " + std::to_string(line) + ", column " + std::to_string(column + 1);
+}
+
+// The cells of one file's rows by column name, converted with messages naming line and column.
+class Columns {
+ public:
+  Columns(std::string file, const CsvTable& table) : file_(std::move(file)), table_(table) {
+    for (size_t i = 0; i < table.header.size(); ++i) index_.emplace(table.header[i], i);
+  }
+
+  bool has(const std::string& name) const { return index_.count(name) > 0; }
+
+  size_t require(const std::string& name) const {
+    const auto found = index_.find(name);
+    if (found == index_.end()) throw InputError(file_ + ": the header has no column " + name);
+    return found->second;
+  }
+
+  // A finite number; an empty cell reads as `empty` when one is given.
+  double number(const CsvTable::Row& row, size_t column,
+                std::optional<double> empty = std::nullopt) const {
+    const std::string& text = row.cells[column];
+    if (text.empty() && empty) return *empty;
+    double value = 0;
+    const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (text.empty() || error != std::errc() || end != text.data() + text.size() ||
+        !std::isfinite(value)) {
+      throw InputError(where(file_, row.line, column) + " (" + table_.header[column] + "): '" +
+                       text + "' is not a finite number");
+    }
+    return value;
+  }
+
+  int64_t integer(const CsvTable::Row& row, size_t column,
+                  std::optional<int64_t> empty = std::nullopt) const {
+    const std::string& text = row.cells[column];
+    if (text.empty() && empty) return *empty;
+    int64_t value = 0;
+    const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (text.empty() || error != std::errc() || end != text.data() + text.size()) {
+      throw InputError(where(file_, row.line, column) + " (" + table_.header[column] + "): '" +
+                       text + "' is not an integer");
+    }
+    return value;
+  }
+
+  bool flag(const CsvTable::Row& row, size_t column, std::optional<bool> empty = {}) const {
+    const std::string& text = row.cells[column];
+    if (text.empty() && empty) return *empty;
+    if (text != "0" && text != "1") {
+      throw InputError(where(file_, row.line, column) + " (" + table_.header[column] + "): '" +
+                       text + "' is not 0 or 1");
+    }
+    return text == "1";
+  }
+
+ private:
+  std::string file_;
+  const CsvTable& table_;
+  std::map<std::string, size_t> index_;
+};
+
+CsvTable readTable(const std::string& path) {
+  auto table = readCsv(path);
+  if (!table) throw InputError(table.error());
+  return std::move(*table);
+}
+
+// One row of trials.csv (the contract of the benchmark's parts).
+struct Trial {
+  int line = 0;
+  std::string experiment, scenario, method, goal_finding, sensor, end_reason;
+  int64_t trial = 0;
+  uint64_t seed = 0;
+  double density = 0;
+  int64_t replan_limit = 0;
+  bool success = false, collision = false, feasible = false, solvable = false;
+  double min_clearance_m = 0, distance_to_goal_m = 0, path_length_m = 0, straight_line_m = 0,
+         path_time_s = 0, wall_time_s = 0;
+  int64_t num_replans = 0;
+  std::map<std::string, StageTiming> timings;
+
+  bool ran() const { return end_reason.rfind("error: ", 0) != 0; }
+};
+
+std::string densityText(double density) {
+  return print("%g", density);
+}
+
+// The trial key of the contract: <experiment>/<scenario>/d<density>/<method>/<goal finding>/
+// <sensor>/s<seed>.
+std::string trialKey(const Trial& t) {
+  return t.experiment + "/" + t.scenario + "/d" + densityText(t.density) + "/" + t.method + "/" +
+         t.goal_finding + "/" + t.sensor + "/s" + std::to_string(t.seed);
+}
+
+// paths/<key with '/' replaced by '-'>.csv, relative to the output folder.
+std::string pathFileOf(const Trial& t) {
+  std::string name = trialKey(t);
+  std::replace(name.begin(), name.end(), '/', '-');
+  return "paths/" + name + ".csv";
+}
+
+std::vector<Trial> readTrials(const std::string& path) {
+  const CsvTable table = readTable(path);
+  const Columns columns(path, table);
+  const size_t experiment = columns.require("experiment"), trial = columns.require("trial"),
+               seed = columns.require("seed"), scenario = columns.require("scenario"),
+               density = columns.require("density"), method = columns.require("method"),
+               goal_finding = columns.require("goal_finding"), sensor = columns.require("sensor"),
+               replan_limit = columns.require("replan_limit"), success = columns.require("success"),
+               collision = columns.require("collision"),
+               min_clearance = columns.require("min_clearance_m"),
+               feasible = columns.require("feasible"), num_replans = columns.require("num_replans"),
+               distance_to_goal = columns.require("distance_to_goal_m"),
+               path_length = columns.require("path_length_m"),
+               straight_line = columns.require("straight_line_m"),
+               path_time = columns.require("path_time_s"), solvable = columns.require("solvable"),
+               wall_time = columns.require("wall_time_s"),
+               end_reason = columns.require("end_reason");
+
+  // <stage>_ms_median, _ms_p95 and _ms_max: a stage has all three columns.
+  struct StageColumns {
+    size_t median, p95, max;
+  };
+  std::map<std::string, StageColumns> stages;
+  const std::string median_suffix = "_ms_median";
+  for (const std::string& name : table.header) {
+    if (name.size() <= median_suffix.size() ||
+        name.compare(name.size() - median_suffix.size(), median_suffix.size(), median_suffix)) {
+      continue;
+    }
+    const std::string stage = name.substr(0, name.size() - median_suffix.size());
+    stages[stage] = {columns.require(name), columns.require(stage + "_ms_p95"),
+                     columns.require(stage + "_ms_max")};
+  }
+
+  std::vector<Trial> trials;
+  std::map<std::string, int> line_of_key;
+  for (const CsvTable::Row& row : table.rows) {
+    Trial t;
+    t.line = row.line;
+    t.experiment = row.cells[experiment];
+    t.scenario = row.cells[scenario];
+    t.method = row.cells[method];
+    t.goal_finding = row.cells[goal_finding];
+    t.sensor = row.cells[sensor];
+    t.end_reason = row.cells[end_reason];
+    if (t.experiment.empty()) {
+      throw InputError(where(path, row.line, experiment) + " (experiment): empty");
+    }
+    // A trial that could not run has no measurements; its cells may be empty.
+    const bool ran = t.ran();
+    const auto zero = ran ? std::nullopt : std::optional<double>(0);
+    const auto zero_int = ran ? std::nullopt : std::optional<int64_t>(0);
+    const auto no = ran ? std::nullopt : std::optional<bool>(false);
+    t.trial = columns.integer(row, trial);
+    const int64_t seed_value = columns.integer(row, seed);
+    if (seed_value < 0) throw InputError(where(path, row.line, seed) + " (seed): negative");
+    t.seed = static_cast<uint64_t>(seed_value);
+    t.density = columns.number(row, density);
+    t.replan_limit = columns.integer(row, replan_limit, zero_int);
+    t.success = columns.flag(row, success, no);
+    t.collision = columns.flag(row, collision, no);
+    t.min_clearance_m = columns.number(row, min_clearance, zero);
+    t.feasible = columns.flag(row, feasible, no);
+    t.num_replans = columns.integer(row, num_replans, zero_int);
+    t.distance_to_goal_m = columns.number(row, distance_to_goal, zero);
+    t.path_length_m = columns.number(row, path_length, zero);
+    t.straight_line_m = columns.number(row, straight_line, zero);
+    t.path_time_s = columns.number(row, path_time, zero);
+    t.solvable = columns.flag(row, solvable, no);
+    t.wall_time_s = columns.number(row, wall_time, zero);
+    for (const auto& [stage, c] : stages) {
+      if (row.cells[c.median].empty()) continue;  // the trial did not run this stage
+      t.timings[stage] = {columns.number(row, c.median), columns.number(row, c.p95),
+                          columns.number(row, c.max)};
+    }
+    const auto [previous, inserted] = line_of_key.emplace(trialKey(t), row.line);
+    if (!inserted) {
+      throw InputError(path + " line " + std::to_string(row.line) + ": trial " + trialKey(t) +
+                       " is already on line " + std::to_string(previous->second));
+    }
+    trials.push_back(std::move(t));
+  }
+  return trials;
+}
+
+struct RunLogRow {
+  std::string started_utc, command, shard, cpu;
+  double wall_s = 0;
+  int64_t jobs = 0, trials_run = 0, trials_skipped = 0, cores = 0;
+};
+
+std::vector<RunLogRow> readRunLog(const std::string& path) {
+  const CsvTable table = readTable(path);
+  const Columns columns(path, table);
+  const size_t started = columns.require("started_utc"), wall = columns.require("wall_s"),
+               command = columns.require("command"), jobs = columns.require("jobs"),
+               shard = columns.require("shard"), run = columns.require("trials_run"),
+               skipped = columns.require("trials_skipped"), cpu = columns.require("cpu"),
+               cores = columns.require("cores");
+  std::vector<RunLogRow> rows;
+  for (const CsvTable::Row& row : table.rows) {
+    RunLogRow r;
+    r.started_utc = row.cells[started];
+    r.command = row.cells[command];
+    r.shard = row.cells[shard];
+    r.cpu = row.cells[cpu];
+    r.wall_s = columns.number(row, wall);
+    r.jobs = columns.integer(row, jobs);
+    r.trials_run = columns.integer(row, run);
+    r.trials_skipped = columns.integer(row, skipped);
+    r.cores = columns.integer(row, cores);
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
+struct E5Row {
+  double fraction = 0, mean_abs_error = 0, p95_abs_error = 0, max_abs_error = 0, median_us = 0,
+         speedup = 0;
+  int64_t stride = 0, poses = 0;
+};
+
+std::vector<E5Row> readE5(const std::string& path) {
+  const CsvTable table = readTable(path);
+  const Columns columns(path, table);
+  const size_t fraction = columns.require("fraction"), stride = columns.require("stride"),
+               poses = columns.require("poses"), mean = columns.require("mean_abs_error"),
+               p95 = columns.require("p95_abs_error"), max = columns.require("max_abs_error"),
+               median_us = columns.require("median_us"), speedup = columns.require("speedup");
+  std::vector<E5Row> rows;
+  for (const CsvTable::Row& row : table.rows) {
+    E5Row r;
+    r.fraction = columns.number(row, fraction);
+    r.stride = columns.integer(row, stride);
+    r.poses = columns.integer(row, poses);
+    r.mean_abs_error = columns.number(row, mean);
+    r.p95_abs_error = columns.number(row, p95);
+    r.max_abs_error = columns.number(row, max);
+    r.median_us = columns.number(row, median_us);
+    r.speedup = columns.number(row, speedup);
+    rows.push_back(r);
+  }
+  std::sort(rows.begin(), rows.end(),
+            [](const E5Row& a, const E5Row& b) { return a.fraction < b.fraction; });
+  return rows;
+}
+
+// ---- statistics ----
+
+struct Tally {
+  int successes = 0;
+  int trials = 0;
+  void add(bool success) {
+    ++trials;
+    successes += success;
+  }
+};
+
+// Variant (method or goal finding) -> density -> tally.
+using SuccessTable = std::map<std::string, std::map<double, Tally>>;
+
+// The known names first in the order the paper lists them, then any others alphabetically.
+std::vector<std::string> ordered(const std::set<std::string>& names,
+                                 const std::vector<std::string>& known) {
+  std::vector<std::string> result;
+  for (const std::string& name : known) {
+    if (names.count(name)) result.push_back(name);
+  }
+  for (const std::string& name : names) {
+    if (std::find(known.begin(), known.end(), name) == known.end()) result.push_back(name);
+  }
+  return result;
+}
+
+const std::vector<std::string> kMethodOrder = {
+    "none", "random", "rrt_star_optimistic", "rrt_star_conservative", "nbvp", "local_exploration"};
+const std::vector<std::string> kGoalFindingOrder = {"line", "gradient", "soft"};
+
+// Only rrt_star_optimistic plans through unknown space (BENCHMARK.md: the target of zero
+// collisions holds for every other method).
+bool conservative(const std::string& method) {
+  return method != "rrt_star_optimistic";
+}
+
+template <class Map>
+std::set<std::string> keysOf(const Map& map) {
+  std::set<std::string> keys;
+  for (const auto& [key, value] : map) keys.insert(key);
+  return keys;
+}
+
+std::vector<const Trial*> select(const std::vector<Trial>& trials, const std::string& experiment) {
+  std::vector<const Trial*> selected;
+  for (const Trial& t : trials) {
+    if (t.experiment == experiment && t.ran()) selected.push_back(&t);
+  }
+  return selected;
+}
+
+// ---- formatting ----
+
+// Whole percent, halves rounded up (5/8 is 63 %, where printf would give 62).
+std::string percent(double fraction) {
+  return print("%.0f", std::round(100 * fraction));
+}
+
+// "46/50 = 92 % [81, 97]": successes, rate and Wilson 95 % interval in percent.
+std::string successCell(const Tally& tally) {
+  if (tally.trials == 0) return "–";
+  const Interval ci = wilsonInterval(tally.successes, tally.trials);
+  return std::to_string(tally.successes) + "/" + std::to_string(tally.trials) + " = " +
+         percent(static_cast<double>(tally.successes) / tally.trials) + " % [" + percent(ci.low) +
+         ", " + percent(ci.high) + "]";
+}
+
+// Three significant digits for durations from microseconds to seconds.
+std::string milliseconds(double ms) {
+  const double magnitude = std::fabs(ms);
+  if (magnitude >= 100) return print("%.0f", ms);
+  if (magnitude >= 10) return print("%.1f", ms);
+  if (magnitude >= 1) return print("%.2f", ms);
+  return print("%.3f", ms);
+}
+
+std::string meters(double m) {
+  return print("%.2f", m);
+}
+
+std::string duration(double s) {
+  if (s < 600) return print("%.1f s", s);
+  if (s < 2 * 3600) return print("%.1f min", s / 60);
+  return print("%.2f h", s / 3600);
+}
+
+std::string escapeCell(const std::string& text) {
+  std::string escaped;
+  for (char c : text) {
+    if (c == '|')
+      escaped += "\\|";
+    else if (c == '\n' || c == '\r')
+      escaped += ' ';
+    else
+      escaped += c;
+  }
+  return escaped;
+}
+
+std::string markdownTable(const std::vector<std::string>& header,
+                          const std::vector<std::vector<std::string>>& rows) {
+  auto line = [](const std::vector<std::string>& cells) {
+    std::string text = "|";
+    for (const std::string& cell : cells) text += " " + escapeCell(cell) + " |";
+    return text + "\n";
+  };
+  // Numbers right-aligned: a column whose every cell starts with a digit or is a dash.
+  std::string text = line(header) + "|";
+  for (size_t i = 0; i < header.size(); ++i) {
+    bool numeric = i > 0 && !rows.empty();
+    for (const auto& row : rows) {
+      const std::string& cell = i < row.size() ? row[i] : std::string();
+      numeric = numeric && !cell.empty() &&
+                (std::isdigit(static_cast<unsigned char>(cell[0])) || cell == "–");
+    }
+    text += numeric ? "--:|" : "---|";
+  }
+  text += "\n";
+  for (const auto& row : rows) text += line(row);
+  return text + "\n";
+}
+
+std::string medianOrDash(const std::vector<double>& values) {
+  return values.empty() ? "–" : meters(median(values));
+}
+
+// ---- output files ----
+
+void writeFile(const std::string& path, const std::string& text) {
+  std::ofstream file(path, std::ios::binary);
+  file << text;
+  file.close();
+  if (!file) throw std::runtime_error("cannot write " + path);
+}
+
+std::string csvQuoted(const std::string& text) {
+  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+// figures/<name>.csv: variant,density,successes,trials,rate,low,high.
+std::string successCsv(const SuccessTable& table, const std::vector<std::string>& order) {
+  std::string text = "variant,density,successes,trials,rate,low,high\n";
+  for (const std::string& variant : order) {
+    for (const auto& [density, tally] : table.at(variant)) {
+      const Interval ci = wilsonInterval(tally.successes, tally.trials);
+      text += csvQuoted(variant) + "," + densityText(density) + "," +
+              std::to_string(tally.successes) + "," + std::to_string(tally.trials) + "," +
+              print("%.6f,%.6f,%.6f\n", static_cast<double>(tally.successes) / tally.trials, ci.low,
+                    ci.high);
+    }
+  }
+  return text;
+}
+
+// What the sections share: the folder, the figures whose data they wrote, their image
+// placeholders, and the problems they met.
+struct Report {
+  std::string out_dir;
+  std::string figures_dir;
+  std::vector<std::string> problems;  // what could not be read or drawn; returned
+  std::vector<std::string> figures;   // the PNGs figures.py is to draw (file names)
+
+  void figureData(const std::string& figure, const std::string& name, const std::string& text) {
+    writeFile(figures_dir + "/" + name, text);
+    if (std::find(figures.begin(), figures.end(), figure) == figures.end()) {
+      figures.push_back(figure);
+    }
+  }
+
+  // A placeholder for the figure's image link; the link replaces it once figures.py has run.
+  std::map<std::string, std::string> captions;
+  std::string image(const std::string& figure, const std::string& caption) {
+    captions[figure] = caption;
+    return marker(figure);
+  }
+  static std::string marker(const std::string& figure) { return "<<figure " + figure + ">>\n\n"; }
+};
+
+std::string successMatrix(const SuccessTable& table, const std::vector<std::string>& order,
+                          const std::string& first_column) {
+  std::set<double> densities;
+  for (const auto& [variant, by_density] : table) {
+    for (const auto& [density, tally] : by_density) densities.insert(density);
+  }
+  std::vector<std::string> header = {first_column};
+  header.insert(header.end(), order.begin(), order.end());
+  std::vector<std::vector<std::string>> rows;
+  for (double density : densities) {
+    std::vector<std::string> row = {densityText(density)};
+    for (const std::string& variant : order) {
+      const auto& by_density = table.at(variant);
+      const auto found = by_density.find(density);
+      row.push_back(found == by_density.end() ? "–" : successCell(found->second));
+    }
+    rows.push_back(row);
+  }
+  return markdownTable(header, rows);
+}
+
+// ---- sections ----
+
+std::string overviewSection(const std::vector<Trial>& trials, const std::vector<RunLogRow>& runs,
+                            bool has_e5, size_t e5_rows) {
+  std::map<std::string, std::vector<const Trial*>> by_experiment;
+  for (const Trial& t : trials) by_experiment[t.experiment].push_back(&t);
+  std::string text = "## Contents\n\n";
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& [experiment, rows_of] : by_experiment) {
+    std::set<std::string> scenarios;
+    int ran = 0;
+    for (const Trial* t : rows_of) {
+      scenarios.insert(t->scenario);
+      ran += t->ran();
+    }
+    std::string scenario_list;
+    for (const std::string& s : scenarios) scenario_list += (scenario_list.empty() ? "" : ", ") + s;
+    rows.push_back({experiment, scenario_list, std::to_string(rows_of.size()), std::to_string(ran),
+                    std::to_string(static_cast<int>(rows_of.size()) - ran)});
+  }
+  text += markdownTable({"experiment", "scenarios", "trials", "ran", "could not run"}, rows);
+  std::vector<std::string> derived;
+  if (by_experiment.count("E2")) derived.push_back("E3 from the E2 trials");
+  if (by_experiment.count("E4")) derived.push_back("T1 from the E4 trials");
+  if (has_e5)
+    derived.push_back("E5 from e5_subsampling.csv (" + std::to_string(e5_rows) + " rows)");
+  if (!derived.empty()) {
+    text += "Also: ";
+    for (size_t i = 0; i < derived.size(); ++i) text += (i ? "; " : "") + derived[i];
+    text += ".\n\n";
+  }
+  text +=
+      "Trials that could not run are left out of every rate, length and timing below; success "
+      "intervals are Wilson 95 % score intervals.\n\n";
+
+  std::string failed;
+  for (const Trial& t : trials) {
+    if (!t.ran()) {
+      failed += "- `" + trialKey(t) + "` (trials.csv line " + std::to_string(t.line) +
+                "): " + escapeCell(t.end_reason) + "\n";
+    }
+  }
+  if (!failed.empty()) text += "### Trials that could not run\n\n" + failed + "\n";
+
+  if (!runs.empty()) {
+    text += "### Invocations (run_log.csv)\n\n";
+    std::vector<std::vector<std::string>> log_rows;
+    for (const RunLogRow& r : runs) {
+      log_rows.push_back({r.started_utc, duration(r.wall_s), "`" + r.command + "`",
+                          std::to_string(r.jobs), r.shard, std::to_string(r.trials_run),
+                          std::to_string(r.trials_skipped), r.cpu, std::to_string(r.cores)});
+    }
+    text += markdownTable({"started (UTC)", "wall time", "command", "jobs", "shard", "trials run",
+                           "trials skipped", "cpu", "cores"},
+                          log_rows);
+  }
+  return text;
+}
+
+std::string throughputSection(const std::vector<Trial>& trials,
+                              const std::vector<RunLogRow>& runs) {
+  std::map<std::string, std::pair<double, double>> by_experiment;  // simulated s, wall s
+  double simulated = 0, wall = 0;
+  int count = 0;
+  for (const Trial& t : trials) {
+    if (!t.ran()) continue;
+    by_experiment[t.experiment].first += t.path_time_s;
+    by_experiment[t.experiment].second += t.wall_time_s;
+    simulated += t.path_time_s;
+    wall += t.wall_time_s;
+    ++count;
+  }
+  if (count == 0) return "";
+  auto ratio = [](double a, double b) { return b > 0 ? print("%.2f", a / b) : std::string("–"); };
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& [experiment, sums] : by_experiment) {
+    rows.push_back({experiment, print("%.0f", sums.first), print("%.0f", sums.second),
+                    ratio(sums.first, sums.second)});
+  }
+  rows.push_back({"all", print("%.0f", simulated), print("%.0f", wall), ratio(simulated, wall)});
+  std::string text =
+      "## Throughput\n\nSimulated seconds flown per wall-clock second: the sum of path_time_s "
+      "over the sum of wall_time_s of the trials, i.e. per thread (each trial runs on one "
+      "thread).\n\n";
+  text += markdownTable(
+      {"experiment", "simulated [s]", "trial wall time [s]", "simulated s per wall s, per thread"},
+      rows);
+  double run_wall = 0;
+  int invocations = 0;
+  for (const RunLogRow& r : runs) {
+    if (r.trials_run > 0) {
+      run_wall += r.wall_s;
+      ++invocations;
+    }
+  }
+  if (invocations > 0 && run_wall > 0) {
+    text +=
+        print("Whole run: %.0f simulated s in %.0f s of wall time over the ", simulated, run_wall) +
+        std::to_string(invocations) + (invocations == 1 ? " invocation" : " invocations") +
+        print(" that ran trials (run_log.csv): %.2f simulated s per wall s (",
+              simulated / run_wall) +
+        "shards run on separate machines at once make this an underestimate).\n\n";
+  }
+  return text;
+}
+
+std::string e1Section(Report& report, const std::vector<Trial>& trials) {
+  SuccessTable table;
+  for (const Trial* t : select(trials, "E1")) table[t->goal_finding][t->density].add(t->success);
+  if (table.empty()) return "";
+  const auto order = ordered(keysOf(table), kGoalFindingOrder);
+  report.figureData("e1_success.png", "e1_success.csv", successCsv(table, order));
+  return "## E1: optimization only, success per goal finding and density\n\n"
+         "line = straight-line goal finding, gradient = ESDF gradient goal finding, soft = "
+         "gradient + soft goal cost. Cells: successes/trials = rate [95 % interval].\n\n" +
+         successMatrix(table, order, "density") +
+         report.image("e1_success.png", "E1: success rate vs density");
+}
+
+std::string e2Section(Report& report, const std::vector<Trial>& trials) {
+  const auto e2 = select(trials, "E2");
+  if (e2.empty()) return "";
+  SuccessTable all, on_solvable;
+  std::map<std::string, int> collisions;
+  std::map<std::string, std::vector<double>> lengths;
+  std::map<std::string, Tally> overall, overall_solvable;
+  for (const Trial* t : e2) {
+    all[t->method][t->density].add(t->success);
+    overall[t->method].add(t->success);
+    on_solvable[t->method];  // every method gets a column
+    if (t->solvable) {
+      on_solvable[t->method][t->density].add(t->success);
+      overall_solvable[t->method].add(t->success);
+    }
+    collisions[t->method] += t->collision;
+    if (t->success) lengths[t->method].push_back(t->path_length_m);
+  }
+  const auto order = ordered(keysOf(all), kMethodOrder);
+  report.figureData("e2_success.png", "e2_success.csv", successCsv(all, order));
+
+  std::string text =
+      "## E2: goal-selection strategies, success per method and density\n\n"
+      "Cells: successes/trials = rate [95 % interval].\n\n" +
+      successMatrix(all, order, "density") +
+      report.image("e2_success.png", "E2: success rate vs density per method");
+
+  std::vector<std::vector<std::string>> rows;
+  for (const std::string& method : order) {
+    std::string target = "not required (plans through unknown space)";
+    if (conservative(method)) target = collisions[method] == 0 ? "met" : "MISSED";
+    rows.push_back({method, successCell(overall[method]),
+                    std::to_string(overall_solvable[method].trials),
+                    successCell(overall_solvable[method]), std::to_string(collisions[method]),
+                    target, medianOrDash(lengths[method])});
+  }
+  text +=
+      "### Per method, all densities\n\nA world is solvable when the ground-truth oracle finds a "
+      "path. Target: zero collisions for every conservative method (all but "
+      "rrt_star_optimistic). Path length: median over the successful trials.\n\n" +
+      markdownTable({"method", "success", "solvable worlds", "success on solvable worlds",
+                     "collisions", "zero-collision target", "median path length [m]"},
+                    rows);
+  text += "### Success on solvable worlds only\n\n" + successMatrix(on_solvable, order, "density");
+  return text;
+}
+
+std::string e3Section(Report& report, const std::vector<Trial>& trials) {
+  // A world is (scenario, density, seed) flown with the same goal finding and sensor.
+  std::map<std::string, std::pair<const Trial*, const Trial*>> worlds;  // random, local_exploration
+  Tally random_success, le_success;
+  for (const Trial* t : select(trials, "E2")) {
+    const std::string world = t->scenario + "/" + densityText(t->density) + "/" + t->goal_finding +
+                              "/" + t->sensor + "/" + std::to_string(t->seed);
+    if (t->method == "random") {
+      worlds[world].first = t;
+      random_success.add(t->success);
+    } else if (t->method == "local_exploration") {
+      worlds[world].second = t;
+      le_success.add(t->success);
+    }
+  }
+  if (random_success.trials == 0 || le_success.trials == 0) return "";
+
+  struct Sums {
+    int pairs = 0;
+    double random = 0, local = 0;
+  };
+  std::map<double, Sums> by_density;
+  Sums total;
+  for (const auto& [world, pair] : worlds) {
+    const auto [random, local] = pair;
+    if (!random || !local || !random->success || !local->success) continue;
+    for (Sums* s : {&by_density[random->density], &total}) {
+      ++s->pairs;
+      s->random += random->path_length_m;
+      s->local += local->path_length_m;
+    }
+  }
+  std::string text =
+      "## E3: path length, random vs local_exploration\n\n"
+      "On the E2 worlds that both random and local_exploration solved. Paper: local exploration "
+      "is on par with random in success and its paths are up to 35 % shorter.\n\n";
+  text += "Success over all E2 worlds: random " + successCell(random_success) +
+          ", local_exploration " + successCell(le_success) + ".\n\n";
+  if (total.pairs == 0) return text + "No world was solved by both methods.\n\n";
+
+  auto row = [](const std::string& label, const Sums& s) {
+    const double random = s.random / s.pairs, local = s.local / s.pairs;
+    return std::vector<std::string>{
+        label,         std::to_string(s.pairs),       meters(random),
+        meters(local), print("%.3f", local / random), print("%.1f %%", 100 * (1 - local / random))};
+  };
+  std::vector<std::vector<std::string>> rows;
+  std::string csv = "density,pairs,random_mean_m,local_exploration_mean_m\n";
+  for (const auto& [density, s] : by_density) {
+    rows.push_back(row(densityText(density), s));
+    csv += densityText(density) + "," + std::to_string(s.pairs) +
+           print(",%.6f,%.6f\n", s.random / s.pairs, s.local / s.pairs);
+  }
+  rows.push_back(row("all", total));
+  report.figureData("e3_path_length.png", "e3_path_length.csv", csv);
+  text += markdownTable(
+      {"density", "worlds both solved", "random mean [m]", "local_exploration mean [m]",
+       "ratio (local_exploration / random)", "local_exploration shorter by"},
+      rows);
+  return text + report.image("e3_path_length.png", "E3: mean path length per density");
+}
+
+// The E4 top-down figure's data: the world of the lowest seed at density 0.2 (else the highest
+// E4 density) that the most methods flew (every method, when one did), and its paths.
+std::string forestFigure(Report& report, const std::vector<const Trial*>& e4,
+                         const std::string& worlds_dir) {
+  std::set<double> densities;
+  for (const Trial* t : e4) densities.insert(t->density);
+  const double density = densities.count(0.2) ? 0.2 : *densities.rbegin();
+  std::map<uint64_t, std::vector<const Trial*>> flown;  // seed -> the trials with a path file
+  for (const Trial* t : e4) {
+    if (t->density == density && std::filesystem::exists(report.out_dir + "/" + pathFileOf(*t))) {
+      flown[t->seed].push_back(t);
+    }
+  }
+  if (flown.empty())
+    return "No E4 trial at density " + densityText(density) +
+           " has its path file, so there is no top-down figure.\n\n";
+  auto best = flown.begin();
+  for (auto it = flown.begin(); it != flown.end(); ++it) {
+    if (it->second.size() > best->second.size()) best = it;
+  }
+  const Trial& first = *best->second.front();
+  auto spec = sim::loadScenario(first.scenario, worlds_dir);
+  if (!spec) {
+    report.problems.push_back("E4 top-down figure: " + spec.error());
+    return "";
+  }
+  auto world = sim::generateWorld(*spec, density, best->first);
+  if (!world) {
+    report.problems.push_back("E4 top-down figure: " + world.error());
+    return "";
+  }
+  std::string world_csv = "kind,x,y,z,radius,height\n";
+  auto point = [&](const char* kind, const Eigen::Vector3d& p) {
+    world_csv += print("%s,%.6f,%.6f,%.6f,,\n", kind, p.x(), p.y(), p.z());
+  };
+  point("bounds_min", world->bounds_min);
+  point("bounds_max", world->bounds_max);
+  point("start", world->start);
+  point("goal", world->goal);
+  for (const sim::Cylinder& c : world->cylinders) {
+    world_csv += print("cylinder,%.6f,%.6f,0,%.6f,%.6f\n", c.x, c.y, c.radius, c.height);
+  }
+  std::map<std::string, const Trial*> by_method;
+  for (const Trial* t : best->second) by_method[t->method] = t;
+  std::string paths_csv = "method,density,seed,path\n";
+  std::string methods;
+  for (const std::string& method : ordered(keysOf(by_method), kMethodOrder)) {
+    paths_csv += csvQuoted(method) + "," + densityText(density) + "," +
+                 std::to_string(best->first) + "," + csvQuoted(pathFileOf(*by_method[method])) +
+                 "\n";
+    methods += (methods.empty() ? "" : ", ") + method;
+  }
+  report.figureData("e4_forest.png", "e4_forest_world.csv", world_csv);
+  report.figureData("e4_forest.png", "e4_forest_paths.csv", paths_csv);
+  return "Top-down: " + first.scenario + " at density " + densityText(density) + ", seed " +
+         std::to_string(best->first) + " (" + std::to_string(world->cylinders.size()) +
+         " cylinders), flown by " + methods + ".\n\n" +
+         report.image("e4_forest.png", "E4: every method on one forest");
+}
+
+std::string e4Section(Report& report, const std::vector<Trial>& trials,
+                      const std::string& worlds_dir) {
+  const auto e4 = select(trials, "E4");
+  if (e4.empty()) return "";
+  SuccessTable table;
+  std::map<std::string, int> collisions;
+  std::map<std::string, std::map<double, std::vector<double>>> lengths;
+  std::set<double> densities;
+  for (const Trial* t : e4) {
+    table[t->method][t->density].add(t->success);
+    collisions[t->method] += t->collision;
+    if (t->success) lengths[t->method][t->density].push_back(t->path_length_m);
+    densities.insert(t->density);
+  }
+  const auto order = ordered(keysOf(table), kMethodOrder);
+  std::vector<std::string> header = {"method"};
+  for (double d : densities) header.push_back("success d=" + densityText(d));
+  header.push_back("collisions");
+  for (double d : densities) header.push_back("median path length d=" + densityText(d) + " [m]");
+  std::vector<std::vector<std::string>> rows;
+  std::string csv = "method,density,successes,trials,rate,low,high\n";
+  for (const std::string& method : order) {
+    std::vector<std::string> row = {method};
+    for (double d : densities) {
+      const auto found = table[method].find(d);
+      row.push_back(found == table[method].end() ? "–" : successCell(found->second));
+    }
+    row.push_back(std::to_string(collisions[method]));
+    for (double d : densities) row.push_back(medianOrDash(lengths[method][d]));
+    rows.push_back(row);
+  }
+  report.figureData("e4_success.png", "e4_success.csv", successCsv(table, order));
+  std::string text =
+      "## E4: long forest, success per method\n\nCells: successes/trials = rate [95 % "
+      "interval]; path length over the successful trials.\n\n" +
+      markdownTable(header, rows) + report.image("e4_success.png", "E4: success per method");
+  return text + forestFigure(report, e4, worlds_dir);
+}
+
+std::string t1Section(const std::vector<Trial>& trials) {
+  struct Samples {
+    std::vector<double> medians, p95s;
+    double max = 0;
+  };
+  std::map<std::string, Samples> stages;
+  for (const Trial* t : select(trials, "E4")) {
+    for (const auto& [stage, timing] : t->timings) {
+      Samples& s = stages[stage];
+      s.medians.push_back(timing.median_ms);
+      s.p95s.push_back(timing.p95_ms);
+      s.max = std::max(s.max, timing.max_ms);
+    }
+  }
+  if (stages.empty()) return "";
+  struct PaperStage {
+    const char* stage;
+    const char* name;
+    double ms;
+  };
+  const PaperStage paper[] = {
+      {"mapper_tsdf_insert", "TSDF insert", 27.0},
+      {"mapper_esdf_update", "ESDF update", 14.5},
+      {"local_planner_trajectory_optimization", "trajectory optimization", 19.3},
+      {"explorer_goal_selection", "intermediate goal selection", 5.9}};
+  std::vector<std::vector<std::string>> rows;
+  auto row = [&](const std::string& stage, const std::string& paper_ms,
+                 const std::string& paper_ratio) {
+    const Samples& s = stages.at(stage);
+    rows.push_back({stage, std::to_string(s.medians.size()), milliseconds(median(s.medians)),
+                    milliseconds(median(s.p95s)), milliseconds(s.max), paper_ms, paper_ratio});
+  };
+  std::set<std::string> shown;
+  for (const PaperStage& p : paper) {
+    if (!stages.count(p.stage)) continue;
+    const double ours = median(stages.at(p.stage).medians);
+    row(p.stage, print("%.1f (", p.ms) + p.name + ")",
+        ours > 0 ? print(p.ms / ours < 10 ? "%.1f×" : "%.0f×", p.ms / ours) : std::string("–"));
+    shown.insert(p.stage);
+  }
+  for (const auto& [stage, samples] : stages) {
+    if (!shown.count(stage)) row(stage, "–", "–");
+  }
+  return "## T1: per-stage timings on the E4 trials\n\n"
+         "Each trial reports the median, p95 and maximum of a stage's durations; over the trials "
+         "this table gives the median of the per-trial medians, the median of the per-trial p95s "
+         "and the maximum of the per-trial maxima. Paper: 2.4 GHz dual-core i7, on board (one "
+         "figure per stage); its ratio to our median.\n\n" +
+         markdownTable({"stage", "trials", "median [ms]", "p95 [ms]", "max [ms]", "paper [ms]",
+                        "paper / median"},
+                       rows);
+}
+
+std::string e5Section(Report& report, const std::vector<E5Row>& rows) {
+  if (rows.empty()) return "";
+  std::vector<std::vector<std::string>> cells;
+  std::string csv =
+      "fraction,stride,poses,mean_abs_error,p95_abs_error,max_abs_error,median_us,speedup\n";
+  for (const E5Row& r : rows) {
+    cells.push_back({print("%g", r.fraction), std::to_string(r.stride), std::to_string(r.poses),
+                     print("%.4f", r.mean_abs_error), print("%.4f", r.p95_abs_error),
+                     print("%.4f", r.max_abs_error), print("%.1f", r.median_us),
+                     print("%.2f×", r.speedup)});
+    csv += print("%.9g,", r.fraction) + std::to_string(r.stride) + "," + std::to_string(r.poses) +
+           print(",%.9g,%.9g,%.9g,%.9g,%.9g\n", r.mean_abs_error, r.p95_abs_error, r.max_abs_error,
+                 r.median_us, r.speedup);
+  }
+  report.figureData("e5_subsampling.png", "e5_subsampling.csv", csv);
+  return "## E5: exploration-gain subsampling\n\n"
+         "Error of the gain (fraction of unknown frustum voxels) when checking every stride-th "
+         "frustum voxel, against stride 1; time of one gain evaluation. Paper: 5 % of the voxels "
+         "give about 1 % error at about 3× the speed.\n\n" +
+         markdownTable({"fraction", "stride", "poses", "mean abs error", "p95 abs error",
+                        "max abs error", "median [µs]", "speed-up"},
+                       cells) +
+         report.image("e5_subsampling.png", "E5: gain error and speed-up vs fraction");
+}
+
+// ---- figures.py ----
+
+std::string tail(const std::string& path, size_t max_chars) {
+  std::ifstream file(path, std::ios::binary);
+  std::string text((std::istreambuf_iterator<char>(file)), {});
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  if (text.size() > max_chars) text = "..." + text.substr(text.size() - max_chars);
+  return text;
+}
+
+// Runs `python script out_dir` (no shell), its output going to figures/figures.log; the error
+// text, empty when it exited with status 0 (the log is then removed).
+std::string drawFigures(const std::string& python, const std::string& script,
+                        const std::string& out_dir, const std::string& log) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  std::vector<std::string> args = {python, script, out_dir};
+  std::vector<char*> argv;
+  for (std::string& arg : args) argv.push_back(arg.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  const int spawned = posix_spawn(&pid, python.c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  const std::string command = python + " " + script + " " + out_dir;
+  if (spawned != 0) return "cannot run " + command + ": " + std::strerror(spawned);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) return "cannot wait for " + command + ": " + std::strerror(errno);
+  }
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+    std::filesystem::remove(log);
+    return "";
+  }
+  const std::string how = WIFEXITED(status)
+                              ? "exited with status " + std::to_string(WEXITSTATUS(status))
+                              : "was killed by signal " + std::to_string(WTERMSIG(status));
+  return command + " " + how + " (output in " + log + "):\n" + tail(log, 2000);
+}
+
+const char* const kFigureFiles[] = {
+    "e1_success.png",     "e1_success.csv",      "e2_success.png",      "e2_success.csv",
+    "e3_path_length.png", "e3_path_length.csv",  "e4_success.png",      "e4_success.csv",
+    "e4_forest.png",      "e4_forest_world.csv", "e4_forest_paths.csv", "e5_subsampling.png",
+    "e5_subsampling.csv", "figures.log"};
+
+}  // namespace
+
+Expected<CsvTable> readCsv(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) return unexpected("cannot read " + path);
+  const std::string text((std::istreambuf_iterator<char>(file)), {});
+  if (file.bad()) return unexpected("cannot read " + path);
+
+  enum class State { kFieldStart, kUnquoted, kQuoted, kAfterQuote };
+  State state = State::kFieldStart;
+  std::vector<CsvTable::Row> records;
+  CsvTable::Row record{1, {}};
+  std::string field;
+  int line = 1, quote_line = 1;
+  auto here = [&] { return where(path, line, record.cells.size()); };
+  auto endRecord = [&] {
+    record.cells.push_back(std::move(field));
+    field.clear();
+    // A blank line is no record.
+    if (record.cells.size() > 1 || !record.cells[0].empty() || state == State::kAfterQuote) {
+      records.push_back(std::move(record));
+    }
+    record = {line + 1, {}};
+  };
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (state == State::kQuoted) {
+      if (c == '"' && i + 1 < text.size() && text[i + 1] == '"') {
+        field += '"';
+        ++i;
+      } else if (c == '"') {
+        state = State::kAfterQuote;
+      } else {
+        line += c == '\n';
+        field += c;
+      }
+      continue;
+    }
+    if (c == '\r' && i + 1 < text.size() && text[i + 1] == '\n') continue;  // CRLF
+    if (c == ',') {
+      record.cells.push_back(std::move(field));
+      field.clear();
+      state = State::kFieldStart;
+    } else if (c == '\n') {
+      endRecord();
+      ++line;
+      state = State::kFieldStart;
+    } else if (c == '"') {
+      if (state != State::kFieldStart) {
+        return unexpected(here() + ": a quote inside a field that did not start with one");
+      }
+      state = State::kQuoted;
+      quote_line = line;
+    } else {
+      if (state == State::kAfterQuote) return unexpected(here() + ": text after a closing quote");
+      field += c;
+      state = State::kUnquoted;
+    }
+  }
+  if (state == State::kQuoted) {
+    return unexpected(where(path, quote_line, record.cells.size()) +
+                      ": the quote opened here is never closed");
+  }
+  if (state != State::kFieldStart || !record.cells.empty()) endRecord();
+
+  if (records.empty()) return unexpected(path + ": empty, not even a header");
+  CsvTable table;
+  table.header = std::move(records.front().cells);
+  for (size_t r = 1; r < records.size(); ++r) {
+    if (records[r].cells.size() != table.header.size()) {
+      return unexpected(path + " line " + std::to_string(records[r].line) + ": " +
+                        std::to_string(records[r].cells.size()) + " cells, the header has " +
+                        std::to_string(table.header.size()));
+    }
+    table.rows.push_back(std::move(records[r]));
+  }
+  return table;
+}
+
+Interval wilsonInterval(int successes, int trials) {
+  if (trials <= 0) return {0, 1};
+  constexpr double z = 1.959963984540054;  // the standard normal's 97.5 % quantile
+  const double n = trials, p = successes / n, z2 = z * z;
+  const double denominator = 1 + z2 / n;
+  const double center = (p + z2 / (2 * n)) / denominator;
+  const double half = z * std::sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / denominator;
+  return {std::max(0.0, center - half), std::min(1.0, center + half)};
+}
+
+std::string writeReport(const std::string& out_dir, const ReportOptions& options) {
+  const std::string source = THICKET_SOURCE_DIR;
+  const std::string worlds_dir =
+      options.worlds_dir.empty() ? source + "/config/worlds" : options.worlds_dir;
+  const std::string script =
+      options.figures_script.empty() ? source + "/tools/bench/figures.py" : options.figures_script;
+  Report report;
+  report.out_dir = out_dir;
+  report.figures_dir = out_dir + "/figures";
+  std::vector<Trial> trials;
+  try {
+    trials = readTrials(out_dir + "/trials.csv");
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  std::vector<RunLogRow> runs;
+  std::vector<E5Row> e5;
+  bool has_e5 = false;
+  try {
+    if (std::filesystem::exists(out_dir + "/run_log.csv"))
+      runs = readRunLog(out_dir + "/run_log.csv");
+  } catch (const std::exception& e) {
+    report.problems.push_back(e.what());
+  }
+  try {
+    if (std::filesystem::exists(out_dir + "/e5_subsampling.csv")) {
+      e5 = readE5(out_dir + "/e5_subsampling.csv");
+      has_e5 = true;
+    }
+  } catch (const std::exception& e) {
+    report.problems.push_back(e.what());
+  }
+
+  try {
+    // This report's figures and their data replace any earlier report's.
+    std::filesystem::create_directories(report.figures_dir);
+    for (const char* name : kFigureFiles) {
+      std::filesystem::remove(report.figures_dir + "/" + name);
+    }
+    // The sections write the figures' data and leave a placeholder for each image.
+    // (One statement each: the sections' side effects happen in the order of the summary.)
+    std::string text = "# thicket benchmark report\n\n";
+    text += overviewSection(trials, runs, has_e5, e5.size());
+    text += throughputSection(trials, runs);
+    text += e1Section(report, trials);
+    text += e2Section(report, trials);
+    text += e3Section(report, trials);
+    text += e4Section(report, trials, worlds_dir);
+    text += t1Section(trials);
+    text += e5Section(report, e5);
+    if (!report.figures.empty()) {
+      const std::string error =
+          drawFigures(options.python, script, out_dir, report.figures_dir + "/figures.log");
+      if (!error.empty()) report.problems.push_back("figures: " + error);
+    }
+    for (const auto& [figure, caption] : report.captions) {
+      const std::string marker = Report::marker(figure);
+      const std::string link = std::filesystem::exists(report.figures_dir + "/" + figure)
+                                   ? "![" + caption + "](figures/" + figure + ")\n\n"
+                                   : "(Figure " + figure + " was not drawn: see Problems.)\n\n";
+      for (size_t at = text.find(marker); at != std::string::npos; at = text.find(marker, at)) {
+        text.replace(at, marker.size(), link);
+        at += link.size();
+      }
+    }
+    if (!report.problems.empty()) {
+      text += "## Problems\n\n";
+      for (const std::string& problem : report.problems) {
+        text += "```\n" + problem + "\n```\n\n";
+      }
+    }
+    writeFile(out_dir + "/summary.md", text);
+  } catch (const std::exception& e) {
+    report.problems.push_back(e.what());
+  }
+  std::string error;
+  for (const std::string& problem : report.problems) error += (error.empty() ? "" : "\n") + problem;
+  return error;
+}
+
+}  // namespace thicket::bench
