@@ -27,16 +27,20 @@ std::optional<LogEvent> LogReader::next() {
   const lcm::LogEvent* event = file_->readNextEvent();
   if (event == nullptr) {
     // LCM skips what it cannot parse while hunting for the next sync word, and reports a torn
-    // tail and a clean end alike: whatever lies after the last good event is the damage.
+    // tail and a clean end alike: whatever bytes the events read do not account for are damage.
     if (error_.empty() && good_end_ < file_size_) {
       error_ = path_ + ": " + std::to_string(file_size_ - good_end_) +
-               " unreadable bytes after event " + std::to_string(events_read_) + " (from byte " +
-               std::to_string(good_end_) + "): torn or corrupt log";
+               " bytes are not part of the " + std::to_string(events_read_) +
+               " events read: torn or corrupt log";
     }
     return std::nullopt;
   }
   ++events_read_;
-  good_end_ = std::ftell(file_->getFilePtr());
+  // The bytes this event takes in the file (sync word, event number, timestamp, the two lengths,
+  // channel, data), summed rather than taken from ftell: LCM 1.3.1 consumes a tail too short for
+  // the next sync word together with the last event, so ftell would hide that damage.
+  constexpr int64_t kEventHeaderBytes = 4 + 8 + 8 + 4 + 4;
+  good_end_ += kEventHeaderBytes + static_cast<int64_t>(event->channel.size()) + event->datalen;
   const auto* bytes = static_cast<const uint8_t*>(event->data);
   return LogEvent{event->eventnum, event->timestamp, event->channel,
                   std::vector<uint8_t>(bytes, bytes + event->datalen)};

@@ -91,7 +91,22 @@ TEST(LcmLog, TornTailEndsTheLogWithAnError) {
   const auto events = reader.readAll();
   EXPECT_EQ(events.size(), 2u);
   EXPECT_NE(reader.error().find("torn"), std::string::npos) << reader.error();
-  EXPECT_NE(reader.error().find("after event 2"), std::string::npos) << reader.error();
+  EXPECT_NE(reader.error().find("not part of the 2 events read"), std::string::npos)
+      << reader.error();
+}
+
+// LCM 1.3.1 swallows a tail shorter than a sync word together with the last event.
+TEST(LcmLog, ATailShorterThanASyncWordIsDamageToo) {
+  const std::string path = tempPath("short_tail.lcmlog");
+  {
+    LogWriter writer(path);
+    for (int i = 0; i < 3; ++i) writer.write(100 * i, "S", makeSetpoint(i));
+  }
+  std::ofstream(path, std::ios::app | std::ios::binary) << "\xed\xa1";
+  LogReader reader(path);
+  EXPECT_EQ(reader.readAll().size(), 3u);
+  EXPECT_NE(reader.error().find("2 bytes are not part of the 3 events read"), std::string::npos)
+      << reader.error();
 }
 
 TEST(LcmLog, GarbageIsNotALog) {

@@ -53,7 +53,7 @@ class LogReader {
   std::string path_;
   std::unique_ptr<lcm::LogFile> file_;
   int64_t file_size_ = 0;
-  int64_t good_end_ = 0;  // byte offset just after the last event read
+  int64_t good_end_ = 0;  // bytes the events read so far take in the file
   int64_t events_read_ = 0;
   std::string error_;
 };
