@@ -23,6 +23,7 @@
 #include <thread>
 #include <tuple>
 
+#include "csv.h"
 #include "flags.h"
 #include "report.h"
 #include "subsampling.h"
@@ -43,6 +44,14 @@ std::string keyFileName(const std::string& key) {
   std::string name = key;
   std::replace(name.begin(), name.end(), '/', '-');
   return name;
+}
+
+std::string trialPathFile(const std::string& key) {
+  return "paths/" + keyFileName(key) + ".csv";
+}
+
+std::string trialLogFile(const std::string& key) {
+  return "logs/" + keyFileName(key) + ".lcm";
 }
 
 namespace {
@@ -414,42 +423,6 @@ std::vector<TrialSpec> trialList(const ExperimentOptions& options) {
   return list;
 }
 
-CsvText parseCsv(const std::string& text) {
-  CsvText csv;
-  std::vector<std::string> record;
-  std::string cell;
-  bool quoted = false;
-  for (size_t i = 0; i < text.size(); ++i) {
-    const char c = text[i];
-    if (quoted) {
-      if (c != '"') {
-        cell += c;
-      } else if (i + 1 < text.size() && text[i + 1] == '"') {
-        cell += '"';
-        ++i;
-      } else {
-        quoted = false;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      record.push_back(std::move(cell));
-      cell.clear();
-    } else if (c == '\n' || (c == '\r' && i + 1 < text.size() && text[i + 1] == '\n')) {
-      if (c == '\r') ++i;
-      record.push_back(std::move(cell));
-      cell.clear();
-      csv.records.push_back(std::move(record));
-      record.clear();
-      csv.complete_bytes = i + 1;
-    } else {
-      cell += c;
-    }
-  }
-  csv.torn_tail = csv.complete_bytes < text.size();
-  return csv;
-}
-
 namespace {
 
 // ---- rows: the trials finished so far ----
@@ -596,9 +569,9 @@ void warn(const std::string& command, const std::string& message) {
 
 // Throws unless `csv` is empty or starts with the rows header.
 void checkRowsHeader(const std::string& path, const CsvText& csv) {
-  if (!csv.records.empty() && csv.records[0] != rowColumns()) {
+  if (!csv.records.empty() && csv.records[0].cells != rowColumns()) {
     throw std::runtime_error(path + ": not a rows file of this thicket-bench (its header is '" +
-                             joined(csv.records[0], ",") + "', expected '" +
+                             joined(csv.records[0].cells, ",") + "', expected '" +
                              joined(rowColumns(), ",") + "')");
   }
 }
@@ -614,9 +587,10 @@ std::vector<Row> parseRows(const std::string& command, const std::string& path,
   if (csv.records.empty()) return rows;  // empty, or a header torn while being written
   if (csv.torn_tail) warn(command, "ignoring the torn last line of " + path + " (a killed run)");
   for (size_t i = 1; i < csv.records.size(); ++i) {
-    Expected<Row> row = rowFromCells(csv.records[i]);
+    Expected<Row> row = rowFromCells(csv.records[i].cells);
     if (!row) {
-      warn(command, path + " line " + std::to_string(i + 1) + ": " + row.error() + "; ignored");
+      warn(command, path + " line " + std::to_string(csv.records[i].line) + ": " + row.error() +
+                        "; ignored");
       continue;
     }
     row->source = source;
@@ -803,19 +777,18 @@ Row flyTrial(const TrialSpec& spec, const FlyContext& context) {
   run.worlds_dir = context.options.worlds_dir;
   run.out = context.options.out;
   const std::string key = spec.key();
-  const std::string name = keyFileName(key);
   try {
     std::string log_error;
     TrialObserver observer;
     if (context.record && std::regex_search(key, *context.record)) {
-      const std::string log = context.options.out + "/logs/" + name + ".lcm";
+      const std::string log = context.options.out + "/" + trialLogFile(key);
       observer = [log, &log_error](lcm::LCM& lcm) {
         return std::make_unique<TrialLog>(lcm, log, log_error);
       };
     }
     TrialResult result = runTrial(run, trialWorld(run, spec.trial), spec.trial, observer);
     if (!log_error.empty()) throw std::runtime_error("log: " + log_error);
-    writePathFile(context.options.out + "/paths/" + name + ".csv", result.path);
+    writePathFile(context.options.out + "/" + trialPathFile(key), result.path);
     return rowFromResult(spec, result);
   } catch (const std::exception& e) {
     TrialResult failed;
@@ -946,9 +919,9 @@ void appendRunLog(const std::string& dir, const std::string& lines) {
   std::string text;
   if (fs::exists(path)) {
     const CsvText csv = parseCsv(readWholeFile(path));
-    if (!csv.records.empty() && csv.records[0] != runLogColumns()) {
+    if (!csv.records.empty() && csv.records[0].cells != runLogColumns()) {
       throw std::runtime_error(path + " is not a run log of this thicket-bench (header '" +
-                               joined(csv.records[0], ",") + "')");
+                               joined(csv.records[0].cells, ",") + "')");
     }
     if (csv.records.empty()) text = csvLine(runLogColumns());
   } else {
@@ -1216,7 +1189,9 @@ int mergeCommand(const std::vector<std::string>& args) {
     std::set<std::string> run_log_seen;
     if (fs::exists(options.out + "/run_log.csv")) {
       const CsvText own = parseCsv(readWholeFile(options.out + "/run_log.csv"));
-      for (size_t i = 1; i < own.records.size(); ++i) run_log_seen.insert(csvLine(own.records[i]));
+      for (size_t i = 1; i < own.records.size(); ++i) {
+        run_log_seen.insert(csvLine(own.records[i].cells));
+      }
     }
     for (const std::string& input : inputs) {
       std::vector<Row> more = readRows(command, input);
@@ -1224,12 +1199,12 @@ int mergeCommand(const std::vector<std::string>& args) {
       // The shards' own run log lines, so the merged folder tells how every part was run.
       if (!fs::exists(input + "/run_log.csv")) continue;
       const CsvText log = parseCsv(readWholeFile(input + "/run_log.csv"));
-      if (log.records.empty() || log.records[0] != runLogColumns()) {
+      if (log.records.empty() || log.records[0].cells != runLogColumns()) {
         warn(command, input + "/run_log.csv is not a run log; its lines are not merged");
         continue;
       }
       for (size_t i = 1; i < log.records.size(); ++i) {
-        const std::string line = csvLine(log.records[i]);
+        const std::string line = csvLine(log.records[i].cells);
         if (run_log_seen.insert(line).second) run_log_lines += line;
       }
     }
@@ -1239,15 +1214,16 @@ int mergeCommand(const std::vector<std::string>& args) {
     for (const char* sub : {"/rows", "/paths", "/logs"}) fs::create_directories(options.out + sub);
     size_t missing_paths = 0;
     for (const Row& row : rows) {
-      const std::string name = keyFileName(row.spec.key());
-      const fs::path path = fs::path(row.source) / "paths" / (name + ".csv");
-      if (fs::exists(path)) {
-        copyOver(path, fs::path(options.out) / "paths" / (name + ".csv"));
+      const std::string path = trialPathFile(row.spec.key());
+      if (fs::exists(fs::path(row.source) / path)) {
+        copyOver(fs::path(row.source) / path, fs::path(options.out) / path);
       } else if (!row.failed()) {
         ++missing_paths;
       }
-      const fs::path log = fs::path(row.source) / "logs" / (name + ".lcm");
-      if (fs::exists(log)) copyOver(log, fs::path(options.out) / "logs" / (name + ".lcm"));
+      const std::string log = trialLogFile(row.spec.key());
+      if (fs::exists(fs::path(row.source) / log)) {
+        copyOver(fs::path(row.source) / log, fs::path(options.out) / log);
+      }
     }
     if (missing_paths > 0) {
       warn(command, std::to_string(missing_paths) + " trials have no path file in their folder");

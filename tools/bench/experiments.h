@@ -45,6 +45,10 @@ struct TrialSpec {
 
 /// The key with '/' replaced by '-': the name of the trial's path and log files.
 std::string keyFileName(const std::string& key);
+/// The trial's path file and log file, relative to the output folder:
+/// "paths/<keyFileName(key)>.csv" and "logs/<keyFileName(key)>.lcm".
+std::string trialPathFile(const std::string& key);
+std::string trialLogFile(const std::string& key);
 
 /// What `thicket-bench experiment` was asked for. Empty selection lists select everything.
 struct ExperimentOptions {
@@ -78,16 +82,6 @@ std::vector<TrialSpec> trialList(const ExperimentOptions& options);
 inline bool inShard(size_t position, int index, int count) {
   return position % static_cast<size_t>(count) == static_cast<size_t>(index);
 }
-
-/// A CSV file's records (RFC 4180: quoted cells may hold commas, quotes and line breaks).
-struct CsvText {
-  std::vector<std::vector<std::string>> records;
-  /// The last record had no line end (a writer killed mid-line); it is not in `records`.
-  bool torn_tail = false;
-  /// Byte offset just after the last complete record.
-  size_t complete_bytes = 0;
-};
-CsvText parseCsv(const std::string& text);
 
 /// `thicket-bench experiment ARGS` and `thicket-bench merge ARGS`: exit status 0 when every
 /// trial ran and the output was written, 1 when a trial could not run or output could not be

@@ -21,17 +21,35 @@ using FlagError = std::optional<std::string>;
 template <class Options>
 using FlagSetter = std::function<FlagError(Options&, const std::string&)>;
 
-inline FlagError parseNumber(double& value, const std::string& flag, const std::string& text) {
+/// `text`, all of it, as a finite number; nothing when it is not one.
+inline std::optional<double> finiteNumber(const std::string& text) {
   try {
     size_t used = 0;
     const double parsed = std::stod(text, &used);
-    if (used == text.size() && std::isfinite(parsed) && parsed >= 0) {
-      value = parsed;
-      return {};
-    }
+    if (used == text.size() && std::isfinite(parsed)) return parsed;
   } catch (const std::exception&) {
   }
+  return std::nullopt;
+}
+
+/// A finite number >= 0.
+inline FlagError parseNumber(double& value, const std::string& flag, const std::string& text) {
+  const std::optional<double> parsed = finiteNumber(text);
+  if (parsed && *parsed >= 0) {
+    value = *parsed;
+    return {};
+  }
   return flag + " '" + text + "' is not a non-negative number";
+}
+
+/// A finite number of either sign, for flags whose range is checked with the other options.
+inline FlagError parseAnyNumber(double& value, const std::string& flag, const std::string& text) {
+  const std::optional<double> parsed = finiteNumber(text);
+  if (parsed) {
+    value = *parsed;
+    return {};
+  }
+  return flag + " '" + text + "' is not a number";
 }
 
 template <class Int>

@@ -21,6 +21,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "csv.h"
+#include "experiments.h"
 #include "thicket/common/statistics.h"
 #include "thicket/sim/world.h"
 #include "trials.h"
@@ -44,10 +46,6 @@ std::string print(const char* spec, Args... args) {
   return text;
 }
 
-std::string where(const std::string& file, int line, size_t column) {
-  return file + " line " + std::to_string(line) + ", column " + std::to_string(column + 1);
-}
-
 // The cells of one file's rows by column name, converted with messages naming line and column.
 class Columns {
  public:
@@ -64,7 +62,7 @@ class Columns {
   }
 
   // A finite number; an empty cell reads as `empty` when one is given.
-  double number(const CsvTable::Row& row, size_t column,
+  double number(const CsvRecord& row, size_t column,
                 std::optional<double> empty = std::nullopt) const {
     const std::string& text = row.cells[column];
     if (text.empty() && empty) return *empty;
@@ -72,30 +70,30 @@ class Columns {
     const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
     if (text.empty() || error != std::errc() || end != text.data() + text.size() ||
         !std::isfinite(value)) {
-      throw InputError(where(file_, row.line, column) + " (" + table_.header[column] + "): '" +
+      throw InputError(csvWhere(file_, row.line, column) + " (" + table_.header[column] + "): '" +
                        text + "' is not a finite number");
     }
     return value;
   }
 
-  int64_t integer(const CsvTable::Row& row, size_t column,
+  int64_t integer(const CsvRecord& row, size_t column,
                   std::optional<int64_t> empty = std::nullopt) const {
     const std::string& text = row.cells[column];
     if (text.empty() && empty) return *empty;
     int64_t value = 0;
     const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
     if (text.empty() || error != std::errc() || end != text.data() + text.size()) {
-      throw InputError(where(file_, row.line, column) + " (" + table_.header[column] + "): '" +
+      throw InputError(csvWhere(file_, row.line, column) + " (" + table_.header[column] + "): '" +
                        text + "' is not an integer");
     }
     return value;
   }
 
-  bool flag(const CsvTable::Row& row, size_t column, std::optional<bool> empty = {}) const {
+  bool flag(const CsvRecord& row, size_t column, std::optional<bool> empty = {}) const {
     const std::string& text = row.cells[column];
     if (text.empty() && empty) return *empty;
     if (text != "0" && text != "1") {
-      throw InputError(where(file_, row.line, column) + " (" + table_.header[column] + "): '" +
+      throw InputError(csvWhere(file_, row.line, column) + " (" + table_.header[column] + "): '" +
                        text + "' is not 0 or 1");
     }
     return text == "1";
@@ -116,6 +114,7 @@ CsvTable readTable(const std::string& path) {
 // One row of trials.csv (the contract of the benchmark's parts).
 struct Trial {
   int line = 0;
+  std::string key;  // TrialSpec::key()
   std::string experiment, scenario, method, goal_finding, sensor, end_reason;
   int64_t trial = 0;
   uint64_t seed = 0;
@@ -134,18 +133,17 @@ std::string densityText(double density) {
   return print("%g", density);
 }
 
-// The trial key of the contract: <experiment>/<scenario>/d<density>/<method>/<goal finding>/
-// <sensor>/s<seed>.
+// The trial key of the contract (TrialSpec::key(), experiments.h).
 std::string trialKey(const Trial& t) {
-  return t.experiment + "/" + t.scenario + "/d" + densityText(t.density) + "/" + t.method + "/" +
-         t.goal_finding + "/" + t.sensor + "/s" + std::to_string(t.seed);
-}
-
-// paths/<key with '/' replaced by '-'>.csv, relative to the output folder.
-std::string pathFileOf(const Trial& t) {
-  std::string name = trialKey(t);
-  std::replace(name.begin(), name.end(), '/', '-');
-  return "paths/" + name + ".csv";
+  TrialSpec spec;
+  spec.experiment = t.experiment;
+  spec.scenario = t.scenario;
+  spec.density = t.density;
+  spec.method = t.method;
+  spec.goal_finding = t.goal_finding;
+  spec.sensor = t.sensor;
+  spec.seed = t.seed;
+  return spec.key();
 }
 
 std::vector<Trial> readTrials(const std::string& path) {
@@ -184,7 +182,7 @@ std::vector<Trial> readTrials(const std::string& path) {
 
   std::vector<Trial> trials;
   std::map<std::string, int> line_of_key;
-  for (const CsvTable::Row& row : table.rows) {
+  for (const CsvRecord& row : table.rows) {
     Trial t;
     t.line = row.line;
     t.experiment = row.cells[experiment];
@@ -194,7 +192,7 @@ std::vector<Trial> readTrials(const std::string& path) {
     t.sensor = row.cells[sensor];
     t.end_reason = row.cells[end_reason];
     if (t.experiment.empty()) {
-      throw InputError(where(path, row.line, experiment) + " (experiment): empty");
+      throw InputError(csvWhere(path, row.line, experiment) + " (experiment): empty");
     }
     // A trial that could not run has no measurements; its cells may be empty.
     const bool ran = t.ran();
@@ -203,7 +201,7 @@ std::vector<Trial> readTrials(const std::string& path) {
     const auto no = ran ? std::nullopt : std::optional<bool>(false);
     t.trial = columns.integer(row, trial);
     const int64_t seed_value = columns.integer(row, seed);
-    if (seed_value < 0) throw InputError(where(path, row.line, seed) + " (seed): negative");
+    if (seed_value < 0) throw InputError(csvWhere(path, row.line, seed) + " (seed): negative");
     t.seed = static_cast<uint64_t>(seed_value);
     t.density = columns.number(row, density);
     t.replan_limit = columns.integer(row, replan_limit, zero_int);
@@ -223,9 +221,10 @@ std::vector<Trial> readTrials(const std::string& path) {
       t.timings[stage] = {columns.number(row, c.median), columns.number(row, c.p95),
                           columns.number(row, c.max)};
     }
-    const auto [previous, inserted] = line_of_key.emplace(trialKey(t), row.line);
+    t.key = trialKey(t);
+    const auto [previous, inserted] = line_of_key.emplace(t.key, row.line);
     if (!inserted) {
-      throw InputError(path + " line " + std::to_string(row.line) + ": trial " + trialKey(t) +
+      throw InputError(path + " line " + std::to_string(row.line) + ": trial " + t.key +
                        " is already on line " + std::to_string(previous->second));
     }
     trials.push_back(std::move(t));
@@ -248,7 +247,7 @@ std::vector<RunLogRow> readRunLog(const std::string& path) {
                skipped = columns.require("trials_skipped"), cpu = columns.require("cpu"),
                cores = columns.require("cores");
   std::vector<RunLogRow> rows;
-  for (const CsvTable::Row& row : table.rows) {
+  for (const CsvRecord& row : table.rows) {
     RunLogRow r;
     r.started_utc = row.cells[started];
     r.command = row.cells[command];
@@ -278,7 +277,7 @@ std::vector<E5Row> readE5(const std::string& path) {
                p95 = columns.require("p95_abs_error"), max = columns.require("max_abs_error"),
                median_us = columns.require("median_us"), speedup = columns.require("speedup");
   std::vector<E5Row> rows;
-  for (const CsvTable::Row& row : table.rows) {
+  for (const CsvRecord& row : table.rows) {
     E5Row r;
     r.fraction = columns.number(row, fraction);
     r.stride = columns.integer(row, stride);
@@ -424,27 +423,13 @@ std::string medianOrDash(const std::vector<double>& values) {
 
 // ---- output files ----
 
-void writeFile(const std::string& path, const std::string& text) {
-  std::ofstream file(path, std::ios::binary);
-  file << text;
-  file.close();
-  if (!file) throw std::runtime_error("cannot write " + path);
-}
-
-std::string csvQuoted(const std::string& text) {
-  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
-  std::string quoted = "\"";
-  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return quoted + "\"";
-}
-
 // figures/<name>.csv: variant,density,successes,trials,rate,low,high.
 std::string successCsv(const SuccessTable& table, const std::vector<std::string>& order) {
   std::string text = "variant,density,successes,trials,rate,low,high\n";
   for (const std::string& variant : order) {
     for (const auto& [density, tally] : table.at(variant)) {
       const Interval ci = wilsonInterval(tally.successes, tally.trials);
-      text += csvQuoted(variant) + "," + densityText(density) + "," +
+      text += csvCell(variant) + "," + densityText(density) + "," +
               std::to_string(tally.successes) + "," + std::to_string(tally.trials) + "," +
               print("%.6f,%.6f,%.6f\n", static_cast<double>(tally.successes) / tally.trials, ci.low,
                     ci.high);
@@ -462,7 +447,7 @@ struct Report {
   std::vector<std::string> figures;   // the PNGs figures.py is to draw (file names)
 
   void figureData(const std::string& figure, const std::string& name, const std::string& text) {
-    writeFile(figures_dir + "/" + name, text);
+    writeTextFile(figures_dir + "/" + name, text);
     if (std::find(figures.begin(), figures.end(), figure) == figures.end()) {
       figures.push_back(figure);
     }
@@ -536,7 +521,7 @@ std::string overviewSection(const std::vector<Trial>& trials, const std::vector<
   std::string failed;
   for (const Trial& t : trials) {
     if (!t.ran()) {
-      failed += "- `" + trialKey(t) + "` (trials.csv line " + std::to_string(t.line) +
+      failed += "- `" + t.key + "` (trials.csv line " + std::to_string(t.line) +
                 "): " + escapeCell(t.end_reason) + "\n";
     }
   }
@@ -735,7 +720,8 @@ std::string forestFigure(Report& report, const std::vector<const Trial*>& e4,
   const double density = densities.count(0.2) ? 0.2 : *densities.rbegin();
   std::map<uint64_t, std::vector<const Trial*>> flown;  // seed -> the trials with a path file
   for (const Trial* t : e4) {
-    if (t->density == density && std::filesystem::exists(report.out_dir + "/" + pathFileOf(*t))) {
+    if (t->density == density &&
+        std::filesystem::exists(report.out_dir + "/" + trialPathFile(t->key))) {
       flown[t->seed].push_back(t);
     }
   }
@@ -773,9 +759,8 @@ std::string forestFigure(Report& report, const std::vector<const Trial*>& e4,
   std::string paths_csv = "method,density,seed,path\n";
   std::string methods;
   for (const std::string& method : ordered(keysOf(by_method), kMethodOrder)) {
-    paths_csv += csvQuoted(method) + "," + densityText(density) + "," +
-                 std::to_string(best->first) + "," + csvQuoted(pathFileOf(*by_method[method])) +
-                 "\n";
+    paths_csv += csvCell(method) + "," + densityText(density) + "," + std::to_string(best->first) +
+                 "," + csvCell(trialPathFile(by_method[method]->key)) + "\n";
     methods += (methods.empty() ? "" : ", ") + method;
   }
   report.figureData("e4_forest.png", "e4_forest_world.csv", world_csv);
@@ -954,83 +939,6 @@ const char* const kFigureFiles[] = {
 
 }  // namespace
 
-Expected<CsvTable> readCsv(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) return unexpected("cannot read " + path);
-  const std::string text((std::istreambuf_iterator<char>(file)), {});
-  if (file.bad()) return unexpected("cannot read " + path);
-
-  enum class State { kFieldStart, kUnquoted, kQuoted, kAfterQuote };
-  State state = State::kFieldStart;
-  std::vector<CsvTable::Row> records;
-  CsvTable::Row record{1, {}};
-  std::string field;
-  int line = 1, quote_line = 1;
-  auto here = [&] { return where(path, line, record.cells.size()); };
-  auto endRecord = [&] {
-    record.cells.push_back(std::move(field));
-    field.clear();
-    // A blank line is no record.
-    if (record.cells.size() > 1 || !record.cells[0].empty() || state == State::kAfterQuote) {
-      records.push_back(std::move(record));
-    }
-    record = {line + 1, {}};
-  };
-  for (size_t i = 0; i < text.size(); ++i) {
-    const char c = text[i];
-    if (state == State::kQuoted) {
-      if (c == '"' && i + 1 < text.size() && text[i + 1] == '"') {
-        field += '"';
-        ++i;
-      } else if (c == '"') {
-        state = State::kAfterQuote;
-      } else {
-        line += c == '\n';
-        field += c;
-      }
-      continue;
-    }
-    if (c == '\r' && i + 1 < text.size() && text[i + 1] == '\n') continue;  // CRLF
-    if (c == ',') {
-      record.cells.push_back(std::move(field));
-      field.clear();
-      state = State::kFieldStart;
-    } else if (c == '\n') {
-      endRecord();
-      ++line;
-      state = State::kFieldStart;
-    } else if (c == '"') {
-      if (state != State::kFieldStart) {
-        return unexpected(here() + ": a quote inside a field that did not start with one");
-      }
-      state = State::kQuoted;
-      quote_line = line;
-    } else {
-      if (state == State::kAfterQuote) return unexpected(here() + ": text after a closing quote");
-      field += c;
-      state = State::kUnquoted;
-    }
-  }
-  if (state == State::kQuoted) {
-    return unexpected(where(path, quote_line, record.cells.size()) +
-                      ": the quote opened here is never closed");
-  }
-  if (state != State::kFieldStart || !record.cells.empty()) endRecord();
-
-  if (records.empty()) return unexpected(path + ": empty, not even a header");
-  CsvTable table;
-  table.header = std::move(records.front().cells);
-  for (size_t r = 1; r < records.size(); ++r) {
-    if (records[r].cells.size() != table.header.size()) {
-      return unexpected(path + " line " + std::to_string(records[r].line) + ": " +
-                        std::to_string(records[r].cells.size()) + " cells, the header has " +
-                        std::to_string(table.header.size()));
-    }
-    table.rows.push_back(std::move(records[r]));
-  }
-  return table;
-}
-
 Interval wilsonInterval(int successes, int trials) {
   if (trials <= 0) return {0, 1};
   constexpr double z = 1.959963984540054;  // the standard normal's 97.5 % quantile
@@ -1112,7 +1020,7 @@ std::string writeReport(const std::string& out_dir, const ReportOptions& options
         text += "```\n" + problem + "\n```\n\n";
       }
     }
-    writeFile(out_dir + "/summary.md", text);
+    writeTextFile(out_dir + "/summary.md", text);
   } catch (const std::exception& e) {
     report.problems.push_back(e.what());
   }

@@ -5,28 +5,8 @@
 #pragma once
 
 #include <string>
-#include <vector>
-
-#include "thicket/common/expected.h"
 
 namespace thicket::bench {
-
-/// A CSV file as read: the header's cells, then the data rows, each with the line its record
-/// starts on (1-based, the header being line 1) for messages.
-struct CsvTable {
-  std::vector<std::string> header;
-  struct Row {
-    int line = 0;
-    std::vector<std::string> cells;
-  };
-  std::vector<Row> rows;
-};
-
-/// Reads an RFC 4180 CSV (quoted fields with doubled quotes, separators and line breaks inside
-/// quotes, LF or CRLF line ends, an optional final line end). Refuses, naming the file, line and
-/// column: an unreadable or empty file, a quote inside an unquoted field, text after a closing
-/// quote, an unterminated quote, and a row with more or fewer cells than the header.
-Expected<CsvTable> readCsv(const std::string& path);
 
 /// A 95 % confidence interval of a proportion.
 struct Interval {

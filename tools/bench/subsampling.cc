@@ -7,8 +7,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <functional>
-#include <limits>
 #include <map>
 #include <mutex>
 #include <numbers>
@@ -19,6 +17,7 @@
 
 #include <thicket/map_update_t.hpp>
 
+#include "flags.h"
 #include "thicket/common/map_update.h"
 #include "thicket/common/node.h"
 #include "thicket/common/statistics.h"
@@ -33,12 +32,6 @@ constexpr double kMinFraction = 1e-6;
 
 std::string defaultWorldsDir() {
   return std::string(THICKET_SOURCE_DIR) + "/config/worlds";
-}
-
-std::string format(const char* spec, double value) {
-  char text[64];
-  std::snprintf(text, sizeof(text), spec, value);
-  return text;
 }
 
 // ---- flags ----
@@ -67,46 +60,15 @@ std::string usage() {
          "  --out DIR         the output folder\n";
 }
 
-using FlagError = std::optional<std::string>;
-
-FlagError parseNumber(double& value, const std::string& flag, const std::string& text) {
-  try {
-    size_t used = 0;
-    const double parsed = std::stod(text, &used);
-    if (used == text.size() && std::isfinite(parsed)) {
-      value = parsed;
-      return {};
-    }
-  } catch (const std::exception&) {
-  }
-  return flag + " '" + text + "' is not a number";
-}
-
-template <class Int>
-FlagError parseInteger(Int& value, const std::string& flag, const std::string& text, Int min) {
-  try {
-    size_t used = 0;
-    const long long parsed = std::stoll(text, &used);
-    if (used == text.size() && parsed >= min && parsed <= std::numeric_limits<Int>::max()) {
-      value = static_cast<Int>(parsed);
-      return {};
-    }
-  } catch (const std::exception&) {
-  }
-  return flag + " must be an integer >= " + std::to_string(min) + ", not '" + text + "'";
-}
-
 FlagError parseFractions(std::vector<double>& fractions, const std::string& text) {
   std::vector<double> parsed;
   size_t start = 0;
   while (true) {
     const size_t comma = text.find(',', start);
     const std::string item = text.substr(start, comma == std::string::npos ? comma : comma - start);
-    double value = 0;
-    if (item.empty() || parseNumber(value, "", item)) {
-      return "--fractions '" + text + "': '" + item + "' is not a number";
-    }
-    parsed.push_back(value);
+    const std::optional<double> value = finiteNumber(item);
+    if (!value) return "--fractions '" + text + "': '" + item + "' is not a number";
+    parsed.push_back(*value);
     if (comma == std::string::npos) break;
     start = comma + 1;
   }
@@ -114,17 +76,17 @@ FlagError parseFractions(std::vector<double>& fractions, const std::string& text
   return {};
 }
 
-using Setter = std::function<FlagError(SubsamplingOptions&, const std::string&)>;
-
-const std::map<std::string, Setter>& setters() {
+// --density and --fractions take any finite number: their ranges are checked with the other
+// options (checkSubsamplingOptions, checkFractions).
+const std::map<std::string, FlagSetter<SubsamplingOptions>>& setters() {
   using O = SubsamplingOptions;
   using S = const std::string&;
-  static const std::map<std::string, Setter> table = {
+  static const std::map<std::string, FlagSetter<O>> table = {
       {"--maps", [](O& o, S v) { return parseInteger(o.maps, "--maps", v, 1); }},
       {"--poses", [](O& o, S v) { return parseInteger(o.poses, "--poses", v, 1); }},
       {"--fractions", [](O& o, S v) { return parseFractions(o.fractions, v); }},
       {"--scenario", [](O& o, S v) { return (o.scenario = v, FlagError()); }},
-      {"--density", [](O& o, S v) { return parseNumber(o.density, "--density", v); }},
+      {"--density", [](O& o, S v) { return parseAnyNumber(o.density, "--density", v); }},
       {"--seed-base",
        [](O& o, S v) { return parseInteger<int64_t>(o.seed_base, "--seed-base", v, 0); }},
       {"--replans", [](O& o, S v) { return parseInteger(o.replans, "--replans", v, 1); }},
@@ -141,11 +103,12 @@ std::optional<std::string> checkFractions(const std::vector<double>& fractions) 
   std::map<int, double> by_stride;
   for (double f : fractions) {
     if (!(std::isfinite(f) && f >= kMinFraction && f <= 1.0)) {
-      return "fraction " + format("%g", f) + " is not in [" + format("%g", kMinFraction) + ", 1]";
+      return "fraction " + formatNumber("%g", f) + " is not in [" +
+             formatNumber("%g", kMinFraction) + ", 1]";
     }
     const auto [it, added] = by_stride.emplace(strideOfFraction(f), f);
     if (!added) {
-      return "fractions " + format("%g", it->second) + " and " + format("%g", f) +
+      return "fractions " + formatNumber("%g", it->second) + " and " + formatNumber("%g", f) +
              " both give stride " + std::to_string(it->first);
     }
   }
@@ -281,7 +244,7 @@ std::optional<std::string> checkSubsamplingOptions(const SubsamplingOptions& opt
   if (auto error = checkFractions(options.fractions)) return error;
   if (options.scenario.empty()) return "no scenario given";
   if (!(std::isfinite(options.density) && options.density >= 0)) {
-    return "the density must be a non-negative number, not " + format("%g", options.density);
+    return "the density must be a non-negative number, not " + formatNumber("%g", options.density);
   }
   if (options.seed_base < 0) return "the seed base must be >= 0";
   if (options.replans < 1) return "the replan limit must be at least 1";
@@ -292,26 +255,9 @@ std::optional<std::string> checkSubsamplingOptions(const SubsamplingOptions& opt
 
 Expected<SubsamplingOptions> parseSubsamplingOptions(const std::vector<std::string>& args) {
   SubsamplingOptions options;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--help" || args[i] == "-h") {
-      options.help = true;
-      return options;
-    }
-    if (args[i].rfind("--", 0) != 0) return unexpected("unexpected argument '" + args[i] + "'");
-    // "--flag value" or "--flag=value".
-    const size_t equals = args[i].find('=');
-    const std::string flag = args[i].substr(0, equals);
-    const auto setter = setters().find(flag);
-    if (setter == setters().end()) return unexpected("unknown option " + flag);
-    std::string value;
-    if (equals != std::string::npos) {
-      value = args[i].substr(equals + 1);
-    } else if (i + 1 < args.size()) {
-      value = args[++i];
-    }
-    if (value.empty()) return unexpected(flag + " needs a value");
-    if (FlagError error = setter->second(options, value)) return unexpected(*error);
-  }
+  const auto given = applyFlags(args, setters(), options);
+  if (!given) return unexpected(given.error());
+  if (options.help) return options;
   if (auto error = checkSubsamplingOptions(options)) return unexpected(*error);
   return options;
 }

@@ -20,6 +20,7 @@
 #include <thicket/goal_t.hpp>
 #include <thicket/module_timing_t.hpp>
 
+#include "csv.h"
 #include "explorer_node.h"
 #include "flags.h"
 #include "local_planner_node.h"
@@ -367,21 +368,7 @@ std::string flag(bool value) {
   return value ? "1" : "0";
 }
 
-// Quoted when it holds a separator or a quote (RFC 4180).
-std::string csvField(const std::string& text) {
-  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
-  std::string quoted = "\"";
-  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return quoted + "\"";
-}
-
 }  // namespace
-
-std::string csvLine(const std::vector<std::string>& cells) {
-  std::string line;
-  for (size_t i = 0; i < cells.size(); ++i) line += (i ? "," : "") + csvField(cells[i]);
-  return line + "\n";
-}
 
 void writeTextFile(const std::string& path, const std::string& text) {
   std::ofstream file(path, std::ios::binary);

@@ -98,8 +98,6 @@ std::vector<std::string> stageCells(const std::set<std::string>& stages,
                                     const std::map<std::string, StageTiming>& timings);
 /// `value` printed with printf's `spec` ("%g", "%.4f").
 std::string formatNumber(const char* spec, double value);
-/// One CSV line (RFC 4180: a cell holding a comma, quote or line break is quoted), with "\n".
-std::string csvLine(const std::vector<std::string>& cells);
 /// Writes `text` to `path`; throws std::runtime_error naming the file when it cannot.
 void writeTextFile(const std::string& path, const std::string& text);
 /// The executed path as CSV: t (seconds from the first sample), x, y, z, yaw. Throws as

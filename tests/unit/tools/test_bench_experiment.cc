@@ -16,6 +16,7 @@
 #include <thicket/sim_event_t.hpp>
 
 #include "cli.h"
+#include "csv.h"
 #include "experiments.h"
 #include "thicket/common/lcm_log.h"
 
@@ -46,10 +47,14 @@ void writeFile(const std::string& path, const std::string& text) {
   file << text;
 }
 
-Table readCsv(const std::string& path) {
-  const CsvText csv = parseCsv(readFile(path));
-  EXPECT_FALSE(csv.torn_tail) << path;
-  return csv.records;
+// The header, then the rows.
+Table readTable(const std::string& path) {
+  const auto csv = readCsv(path);
+  EXPECT_TRUE(csv) << csv.error();
+  if (!csv) return {};
+  Table table = {csv->header};
+  for (const CsvRecord& row : csv->rows) table.push_back(row.cells);
+  return table;
 }
 
 // A table without the columns that measure wall-clock time (wall_time_s and the stage timings):
@@ -244,7 +249,7 @@ TEST_F(BenchExperimentRun, WritesTheTrialsRowsPathsAndRunLog) {
   EXPECT_NE(reference().output.find(", last: paper d0.3 "), std::string::npos)
       << reference().output;
 
-  const Table trials = readCsv(dir() + "/trials.csv");
+  const Table trials = readTable(dir() + "/trials.csv");
   ASSERT_EQ(trials.size(), 5u);
   const std::vector<std::string> fixed = {
       "experiment",    "trial",           "seed",        "scenario",     "density",
@@ -281,7 +286,7 @@ TEST_F(BenchExperimentRun, WritesTheTrialsRowsPathsAndRunLog) {
   // The two methods flew differently, or this selection would not tell their rows apart.
   EXPECT_NE(trials[1][15], trials[3][15]);
 
-  const Table run_log = readCsv(dir() + "/run_log.csv");
+  const Table run_log = readTable(dir() + "/run_log.csv");
   ASSERT_EQ(run_log.size(), 2u);
   EXPECT_EQ(run_log[0],
             (std::vector<std::string>{"started_utc", "wall_s", "command", "jobs", "shard",
@@ -317,13 +322,13 @@ TEST_F(BenchExperimentRun, ResumesAKilledRunWithTheMissingTrialsOnly) {
       << resumed.output;
   EXPECT_NE(resumed.output.find("cutting the torn last line"), std::string::npos) << resumed.output;
   EXPECT_NE(resumed.output.find("[E2] 4/4 done (2 resumed)"), std::string::npos) << resumed.output;
-  EXPECT_EQ(withoutTimes(readCsv(out + "/trials.csv")),
-            withoutTimes(readCsv(dir() + "/trials.csv")));
+  EXPECT_EQ(withoutTimes(readTable(out + "/trials.csv")),
+            withoutTimes(readTable(dir() + "/trials.csv")));
   // The new rows start on lines of their own.
-  const Table rows = readCsv(rows_file);
+  const Table rows = readTable(rows_file);
   EXPECT_EQ(rows.size(), 5u);
   for (const auto& row : rows) EXPECT_EQ(row.size(), rows[0].size());
-  EXPECT_EQ(readCsv(out + "/run_log.csv").size(), 3u);
+  EXPECT_EQ(readTable(out + "/run_log.csv").size(), 3u);
 
   // Run again: nothing is left to do.
   const CliResult again = bench("experiment " + kSelection + " --out " + out);
@@ -347,20 +352,20 @@ TEST_F(BenchExperimentRun, ShardsOnOneThreadMergeIntoTheRowsOfOneRunOnTwo) {
     EXPECT_NE(shard.output.find("shard " + std::to_string(i) + "/2: 2 trials, 2 run"),
               std::string::npos)
         << shard.output;
-    EXPECT_EQ(readCsv(shards.back() + "/trials.csv").size(), 3u);
+    EXPECT_EQ(readTable(shards.back() + "/trials.csv").size(), 3u);
   }
   const std::string merged = tempDir("merged");
   const CliResult merge = bench("merge --out " + merged + " " + shards[0] + " " + shards[1]);
   ASSERT_EQ(merge.status, 0) << merge.output;
-  EXPECT_EQ(withoutTimes(readCsv(merged + "/trials.csv")),
-            withoutTimes(readCsv(dir() + "/trials.csv")));
+  EXPECT_EQ(withoutTimes(readTable(merged + "/trials.csv")),
+            withoutTimes(readTable(dir() + "/trials.csv")));
   for (const std::string& key : kKeys) {
     const std::string path = "/paths/" + keyFileName(key) + ".csv";
     EXPECT_EQ(readFile(merged + path), readFile(dir() + path)) << key;
   }
   EXPECT_TRUE(fs::exists(merged + "/logs/" + keyFileName(kept) + ".lcm"));
   // The shards' run log lines and the merge's.
-  const Table run_log = readCsv(merged + "/run_log.csv");
+  const Table run_log = readTable(merged + "/run_log.csv");
   ASSERT_EQ(run_log.size(), 4u);
   EXPECT_EQ(run_log[3][2].rfind("thicket-bench merge", 0), 0u);
   EXPECT_EQ(run_log[3][6], "4");
@@ -369,8 +374,8 @@ TEST_F(BenchExperimentRun, ShardsOnOneThreadMergeIntoTheRowsOfOneRunOnTwo) {
   const CliResult twice =
       bench("merge --out " + merged + " " + shards[0] + " " + shards[1] + " " + shards[1]);
   ASSERT_EQ(twice.status, 0) << twice.output;
-  EXPECT_EQ(withoutTimes(readCsv(merged + "/trials.csv")),
-            withoutTimes(readCsv(dir() + "/trials.csv")));
+  EXPECT_EQ(withoutTimes(readTable(merged + "/trials.csv")),
+            withoutTimes(readTable(dir() + "/trials.csv")));
 }
 
 // --record keeps the graph's traffic of the chosen trials: the log ends with the simulator's
@@ -402,7 +407,7 @@ TEST_F(BenchExperimentRun, RecordKeepsTheLogOfTheChosenTrials) {
   EXPECT_GT(channels["EXPLORER_GOAL"] + channels["MODULE_TIMING"], 0);
   ASSERT_TRUE(end) << "no trial end in the log";
 
-  const Table trials = readCsv(out + "/trials.csv");
+  const Table trials = readTable(out + "/trials.csv");
   ASSERT_EQ(trials.size(), 3u);
   const std::vector<std::string>& row = trials[2];  // seed 1
   ASSERT_EQ(row[2], "1");
@@ -427,7 +432,7 @@ TEST(BenchExperiment, ATrialThatCouldNotRunIsRecordedAndTriedAgain) {
   EXPECT_EQ(failed.status, 1) << failed.output;
   EXPECT_NE(failed.output.find("1 run, 0 skipped"), std::string::npos) << failed.output;
   EXPECT_NE(failed.output.find("1 could not run"), std::string::npos) << failed.output;
-  Table trials = readCsv(out + "/trials.csv");
+  Table trials = readTable(out + "/trials.csv");
   ASSERT_EQ(trials.size(), 2u);
   EXPECT_EQ(trials[1][20].rfind("error: ", 0), 0u) << trials[1][20];
   EXPECT_NE(trials[1][20].find("keep_clear"), std::string::npos) << trials[1][20];
@@ -435,7 +440,7 @@ TEST(BenchExperiment, ATrialThatCouldNotRunIsRecordedAndTriedAgain) {
   const CliResult retried = bench(selection + "--out " + out);
   EXPECT_EQ(retried.status, 0) << retried.output;
   EXPECT_NE(retried.output.find("1 run, 0 skipped"), std::string::npos) << retried.output;
-  trials = readCsv(out + "/trials.csv");
+  trials = readTable(out + "/trials.csv");
   ASSERT_EQ(trials.size(), 2u);
   EXPECT_EQ(trials[1][20].rfind("error: ", 0), std::string::npos) << trials[1][20];
   EXPECT_EQ(trials[1][0] + trials[1][5] + trials[1][6], "E1noneline");
@@ -459,18 +464,6 @@ TEST(BenchExperiment, MergeRefusesRowsOfAnotherProgram) {
       input);
   EXPECT_EQ(run.status, 1) << run.output;
   EXPECT_NE(run.output.find("not a rows file"), std::string::npos) << run.output;
-}
-
-TEST(BenchExperimentCsv, ReadsQuotedCellsAndFindsATornTail) {
-  const std::string complete = "a,\"b,c\",\"d\"\"e\"\nf,,\"g\nh\"\r\n";
-  const CsvText csv = parseCsv(complete + "i,j");
-  ASSERT_EQ(csv.records.size(), 2u);
-  EXPECT_EQ(csv.records[0], (std::vector<std::string>{"a", "b,c", "d\"e"}));
-  EXPECT_EQ(csv.records[1], (std::vector<std::string>{"f", "", "g\nh"}));
-  EXPECT_TRUE(csv.torn_tail);
-  EXPECT_EQ(csv.complete_bytes, complete.size());
-  EXPECT_FALSE(parseCsv("a\n").torn_tail);
-  EXPECT_TRUE(parseCsv("\"a\n").torn_tail);  // a quote never closed
 }
 
 }  // namespace

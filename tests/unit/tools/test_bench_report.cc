@@ -1,5 +1,6 @@
-// The benchmark report: Wilson intervals, the CSV reader's refusals, and summary.md and the
-// figures written from a hand-made output folder whose every number is known.
+// The benchmark report: Wilson intervals, the CSV tokenizer and reader (csv.h, shared with the
+// driver) and the reader's refusals, and summary.md and the figures written from a hand-made
+// output folder whose every number is known.
 #include "report.h"
 
 #include <array>
@@ -15,6 +16,7 @@
 
 #include <gtest/gtest.h>
 
+#include "csv.h"
 #include "temp_dir_test.h"
 
 namespace thicket::bench {
@@ -559,7 +561,54 @@ TEST_F(BenchReport, MissingTrialsWriteNothing) {
   EXPECT_FALSE(std::filesystem::exists(out + "/summary.md"));
 }
 
-// ---- malformed files ----
+// ---- CSV (csv.h) ----
+
+TEST(BenchCsv, ReadsQuotedCellsAndFindsATornTail) {
+  const std::string complete = "a,\"b,c\",\"d\"\"e\"\nf,,\"g\nh\"\r\n\n";
+  const CsvText csv = parseCsv(complete + "i,j");
+  ASSERT_EQ(csv.records.size(), 2u);
+  EXPECT_EQ(csv.records[0].cells, (std::vector<std::string>{"a", "b,c", "d\"e"}));
+  EXPECT_EQ(csv.records[0].line, 1);
+  EXPECT_EQ(csv.records[1].cells, (std::vector<std::string>{"f", "", "g\nh"}));
+  EXPECT_EQ(csv.records[1].line, 2);
+  ASSERT_TRUE(csv.torn_tail.has_value());
+  EXPECT_EQ(csv.torn_tail->cells, (std::vector<std::string>{"i", "j"}));
+  EXPECT_EQ(csv.torn_tail->line, 5);  // after a blank line, which is no record
+  EXPECT_EQ(csv.complete_bytes, complete.size());
+  EXPECT_FALSE(csv.error.has_value());
+  EXPECT_FALSE(parseCsv("a\n").torn_tail.has_value());
+
+  const std::string header = "a,b\r\n";
+  const CsvText unclosed = parseCsv(header + "1,\"2\n");  // a quote never closed
+  EXPECT_EQ(unclosed.records.size(), 1u);
+  EXPECT_TRUE(unclosed.torn_tail.has_value());
+  EXPECT_EQ(unclosed.complete_bytes, header.size());
+  ASSERT_TRUE(unclosed.error.has_value());
+  EXPECT_EQ(unclosed.error->line, 2);
+  EXPECT_EQ(unclosed.error->cell, 1u);
+}
+
+TEST(BenchCsv, ReadsOnPastAMalformedQuote) {
+  const CsvText csv = parseCsv("1,2\"x\"y\n\"3\"z,4\n");
+  ASSERT_EQ(csv.records.size(), 2u);
+  EXPECT_EQ(csv.records[0].cells, (std::vector<std::string>{"1", "2xy"}));
+  EXPECT_EQ(csv.records[1].cells, (std::vector<std::string>{"3z", "4"}));
+  ASSERT_TRUE(csv.error.has_value());  // the first one
+  EXPECT_EQ(csv.error->line, 1);
+  EXPECT_EQ(csv.error->cell, 1u);
+  EXPECT_EQ(csv.error->message, "a quote inside a field that did not start with one");
+}
+
+TEST(BenchCsv, LinesReadBackAsTheirCells) {
+  const std::vector<std::string> cells = {"a", "b,c", "d\"e", "f\ng", "h\r\ni", ""};
+  EXPECT_EQ(csvLine(cells), "a,\"b,c\",\"d\"\"e\",\"f\ng\",\"h\r\ni\",\n");
+  const CsvText csv = parseCsv(csvLine(cells) + csvLine({"x"}));
+  ASSERT_EQ(csv.records.size(), 2u);
+  EXPECT_EQ(csv.records[0].cells, cells);
+  EXPECT_EQ(csv.records[1].line, 4);
+  EXPECT_FALSE(csv.torn_tail.has_value());
+  EXPECT_FALSE(csv.error.has_value());
+}
 
 TEST_F(BenchReport, CsvReaderHandlesQuotesAndCrlf) {
   const std::string path = tempPath("quoted.csv");
@@ -573,6 +622,8 @@ TEST_F(BenchReport, CsvReaderHandlesQuotesAndCrlf) {
   EXPECT_EQ(table->rows[1].cells, (std::vector<std::string>{"", "2", "3"}));
   EXPECT_EQ(table->rows[1].line, 5);
 }
+
+// ---- malformed files ----
 
 TEST_F(BenchReport, MalformedCsvNamesLineAndColumn) {
   const struct {

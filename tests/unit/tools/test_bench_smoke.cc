@@ -13,7 +13,7 @@
 
 #include <gtest/gtest.h>
 
-#include "report.h"
+#include "csv.h"
 
 namespace thicket::bench {
 namespace {
