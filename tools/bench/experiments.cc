@@ -92,11 +92,6 @@ struct ExperimentName {
 const ExperimentName kExperimentNames[] = {{"E1", "E1"}, {"E2", "E2"},    {"E3", "E2"},
                                            {"E4", "E4"}, {"E5", nullptr}, {"T1", "E4"}};
 
-// The methods that must never collide (BENCHMARK.md): all but the optimistic one.
-bool conservative(const std::string& method) {
-  return method != "rrt_star_optimistic";
-}
-
 bool sameDensity(double a, double b) {
   return std::abs(a - b) < 1e-9;
 }
@@ -980,7 +975,7 @@ bool finish(const std::string& command, const std::string& dir) {
     size_t conservative_rows = 0, failed = 0;
     for (const Row& row : rows) {
       failed += row.failed();
-      if (!conservative(row.spec.method) || row.failed()) continue;
+      if (!conservativeMethod(row.spec.method) || row.failed()) continue;
       ++conservative_rows;
       if (row.cell("collision") == "1") collisions.push_back(row.spec.key());
     }

@@ -321,16 +321,6 @@ std::vector<std::string> ordered(const std::set<std::string>& names,
   return result;
 }
 
-const std::vector<std::string> kMethodOrder = {
-    "none", "random", "rrt_star_optimistic", "rrt_star_conservative", "nbvp", "local_exploration"};
-const std::vector<std::string> kGoalFindingOrder = {"line", "gradient", "soft"};
-
-// Only rrt_star_optimistic plans through unknown space (BENCHMARK.md: the target of zero
-// collisions holds for every other method).
-bool conservative(const std::string& method) {
-  return method != "rrt_star_optimistic";
-}
-
 template <class Map>
 std::set<std::string> keysOf(const Map& map) {
   std::set<std::string> keys;
@@ -593,7 +583,7 @@ std::string e1Section(Report& report, const std::vector<Trial>& trials) {
   SuccessTable table;
   for (const Trial* t : select(trials, "E1")) table[t->goal_finding][t->density].add(t->success);
   if (table.empty()) return "";
-  const auto order = ordered(keysOf(table), kGoalFindingOrder);
+  const auto order = ordered(keysOf(table), goalFindingNames());
   report.figureData("e1_success.png", "e1_success.csv", successCsv(table, order));
   return "## E1: optimization only, success per goal finding and density\n\n"
          "line = straight-line goal finding, gradient = ESDF gradient goal finding, soft = "
@@ -620,7 +610,7 @@ std::string e2Section(Report& report, const std::vector<Trial>& trials) {
     collisions[t->method] += t->collision;
     if (t->success) lengths[t->method].push_back(t->path_length_m);
   }
-  const auto order = ordered(keysOf(all), kMethodOrder);
+  const auto order = ordered(keysOf(all), methodNames());
   report.figureData("e2_success.png", "e2_success.csv", successCsv(all, order));
 
   std::string text =
@@ -632,7 +622,7 @@ std::string e2Section(Report& report, const std::vector<Trial>& trials) {
   std::vector<std::vector<std::string>> rows;
   for (const std::string& method : order) {
     std::string target = "not required (plans through unknown space)";
-    if (conservative(method)) target = collisions[method] == 0 ? "met" : "MISSED";
+    if (conservativeMethod(method)) target = collisions[method] == 0 ? "met" : "MISSED";
     rows.push_back({method, successCell(overall[method]),
                     std::to_string(overall_solvable[method].trials),
                     successCell(overall_solvable[method]), std::to_string(collisions[method]),
@@ -758,7 +748,7 @@ std::string forestFigure(Report& report, const std::vector<const Trial*>& e4,
   for (const Trial* t : best->second) by_method[t->method] = t;
   std::string paths_csv = "method,density,seed,path\n";
   std::string methods;
-  for (const std::string& method : ordered(keysOf(by_method), kMethodOrder)) {
+  for (const std::string& method : ordered(keysOf(by_method), methodNames())) {
     paths_csv += csvCell(method) + "," + densityText(density) + "," + std::to_string(best->first) +
                  "," + csvCell(trialPathFile(by_method[method]->key)) + "\n";
     methods += (methods.empty() ? "" : ", ") + method;
@@ -785,7 +775,7 @@ std::string e4Section(Report& report, const std::vector<Trial>& trials,
     if (t->success) lengths[t->method][t->density].push_back(t->path_length_m);
     densities.insert(t->density);
   }
-  const auto order = ordered(keysOf(table), kMethodOrder);
+  const auto order = ordered(keysOf(table), methodNames());
   std::vector<std::string> header = {"method"};
   for (double d : densities) header.push_back("success d=" + densityText(d));
   header.push_back("collisions");

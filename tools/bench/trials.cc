@@ -52,17 +52,6 @@ const Method kMethods[] = {
     {"local_exploration", "local_exploration"},
 };
 
-// The explorer node of `method`, seeded by the world and confined to its volume; none for none.
-std::unique_ptr<Node> explorerNode(lcm::LCM& lcm, const sim::World& world, const Method& method) {
-  if (method.strategy == nullptr) return nullptr;
-  explorer::ExplorerNodeOptions options;
-  options.explorer.strategy = method.strategy;
-  options.explorer.seed = static_cast<int64_t>(world.seed);
-  options.explorer.flight_volume_min = world.bounds_min;
-  options.explorer.flight_volume_max = world.bounds_max;
-  return std::make_unique<explorer::ExplorerNode>(lcm, options, steadyClockMillis);
-}
-
 // The goal-finding variants of the optimization-only experiment (BENCHMARK.md, E1).
 struct GoalFinding {
   const char* name;
@@ -82,18 +71,19 @@ const GoalFinding kGoalFindings[] = {
 };
 
 template <class Row, size_t N>
-const Row& findRow(const Row (&table)[N], const std::string& name) {
-  for (const Row& row : table) {
-    if (name == row.name) return row;
-  }
-  throw std::invalid_argument("no row named '" + name + "'");  // parseRunOptions checked it
-}
-
-template <class Row, size_t N>
 std::string rowNames(const Row (&table)[N]) {
   std::string names;
   for (const Row& row : table) names += (names.empty() ? "" : ", ") + std::string(row.name);
   return names;
+}
+
+template <class Row, size_t N>
+const Row& findRow(const Row (&table)[N], const std::string& name, const char* what) {
+  for (const Row& row : table) {
+    if (name == row.name) return row;
+  }
+  throw std::invalid_argument("unknown " + std::string(what) + " '" + name +
+                              "' (known: " + rowNames(table) + ")");
 }
 
 std::string usage() {
@@ -257,22 +247,6 @@ std::unique_ptr<Node> stereoDepthNode(lcm::LCM& lcm, const RunOptions& options,
   return std::make_unique<stereo_depth::StereoDepthNode>(lcm, node, steadyClockMillis);
 }
 
-local_planner::LocalPlannerNodeOptions plannerOptions(const RunOptions& options,
-                                                      const sim::World& world, bool use_explorer) {
-  local_planner::LocalPlannerNodeOptions node;
-  // Every ESDF revision triggers a cycle; no timers run in the composite.
-  node.replan_rate = 0;
-  node.setpoint_rate = 0;
-  const GoalFinding& variant = findRow(kGoalFindings, options.goal_finding);
-  node.planner.goal_finder.method = variant.finder_method;
-  node.planner.soft_goal = variant.soft_goal;
-  node.planner.seed = static_cast<int64_t>(world.seed);
-  node.planner.flight_volume_min = world.bounds_min;
-  node.planner.flight_volume_max = world.bounds_max;
-  node.planner.use_explorer = use_explorer;
-  return node;
-}
-
 }  // namespace
 
 sim::World trialWorld(const RunOptions& options, int trial) {
@@ -304,14 +278,15 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   const sim::SimOptions sim_options = simOptions(options, world);
   sim::SimNode sim(lcm, sim_options, world);
   const std::unique_ptr<Node> stereo = stereoDepthNode(lcm, options, sim_options, world);
-  // The simulator's odometry is in thicket's frames: the bridge only gates it.
-  vio_bridge::VioBridgeNode bridge(lcm, vio_bridge::VioBridgeNodeOptions{}, steadyClockMillis);
-  mapper::MapperNode mapper(lcm, mapper::MapperNodeOptions{}, static_cast<int64_t>(world.seed) + 1,
-                            steadyClockMillis);
-  const std::unique_ptr<Node> explorer =
-      explorerNode(lcm, world, findRow(kMethods, options.method));
-  local_planner::LocalPlannerNode planner(lcm, plannerOptions(options, world, explorer != nullptr),
-                                          steadyClockMillis);
+  const TrialGraphOptions graph = trialGraphOptions(options.method, options.goal_finding,
+                                                    world.seed, world.bounds_min, world.bounds_max);
+  vio_bridge::VioBridgeNode bridge(lcm, graph.bridge, steadyClockMillis);
+  mapper::MapperNode mapper(lcm, graph.mapper, graph.map_id, steadyClockMillis);
+  std::unique_ptr<Node> explorer;
+  if (graph.explorer) {
+    explorer = std::make_unique<explorer::ExplorerNode>(lcm, *graph.explorer, steadyClockMillis);
+  }
+  local_planner::LocalPlannerNode planner(lcm, graph.planner, steadyClockMillis);
   const std::unique_ptr<Node> observer_node = observer ? observer(lcm) : nullptr;
 
   sim.start();
@@ -348,6 +323,38 @@ std::vector<std::string> goalFindingNames() {
   std::vector<std::string> names;
   for (const GoalFinding& variant : kGoalFindings) names.emplace_back(variant.name);
   return names;
+}
+
+bool conservativeMethod(const std::string& method) {
+  return method != "rrt_star_optimistic";
+}
+
+TrialGraphOptions trialGraphOptions(const std::string& method, const std::string& goal_finding,
+                                    uint64_t seed, const Eigen::Vector3d& bounds_min,
+                                    const Eigen::Vector3d& bounds_max) {
+  const Method& strategy = findRow(kMethods, method, "method");
+  const GoalFinding& variant = findRow(kGoalFindings, goal_finding, "goal finding");
+  TrialGraphOptions graph;
+  graph.map_id = static_cast<int64_t>(seed) + 1;
+  if (strategy.strategy != nullptr) {
+    explorer::ExplorerNodeOptions explorer;
+    explorer.explorer.strategy = strategy.strategy;
+    explorer.explorer.seed = static_cast<int64_t>(seed);
+    explorer.explorer.flight_volume_min = bounds_min;
+    explorer.explorer.flight_volume_max = bounds_max;
+    graph.explorer = explorer;
+  }
+  local_planner::LocalPlannerNodeOptions& node = graph.planner;
+  // Every ESDF revision triggers a cycle; no timers run in the composite.
+  node.replan_rate = 0;
+  node.setpoint_rate = 0;
+  node.planner.goal_finder.method = variant.finder_method;
+  node.planner.soft_goal = variant.soft_goal;
+  node.planner.seed = static_cast<int64_t>(seed);
+  node.planner.flight_volume_min = bounds_min;
+  node.planner.flight_volume_max = bounds_max;
+  node.planner.use_explorer = graph.explorer.has_value();
+  return graph;
 }
 
 // ---- output ----

@@ -7,14 +7,21 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
+#include "explorer_node.h"
+#include "local_planner_node.h"
+#include "mapper_node.h"
 #include "thicket/common/expected.h"
 #include "thicket/common/node.h"
 #include "thicket/sim/vehicle.h"
 #include "thicket/sim/world.h"
+#include "vio_bridge_node.h"
 
 namespace thicket::bench {
 
@@ -82,6 +89,29 @@ sim::World trialWorld(const RunOptions& options, int trial);
 /// fixed order.
 std::vector<std::string> methodNames();
 std::vector<std::string> goalFindingNames();
+/// Whether `method` must never collide (BENCHMARK.md): every method but rrt_star_optimistic, the
+/// one that plans through unknown space.
+bool conservativeMethod(const std::string& method);
+
+/// The options of a trial's nodes besides the simulator's: what a trial builds and what the
+/// replay of a recorded trial (tools/replay) must build alike.
+struct TrialGraphOptions {
+  vio_bridge::VioBridgeNodeOptions bridge;  ///< defaults: the simulator's odometry is in
+                                            ///< thicket's frames, the bridge only gates it
+  mapper::MapperNodeOptions mapper;
+  int64_t map_id = 0;
+  /// Absent for the method "none": no explorer in the graph.
+  std::optional<explorer::ExplorerNodeOptions> explorer;
+  local_planner::LocalPlannerNodeOptions planner;
+};
+
+/// The graph of a trial of `method` with `goal_finding` on the world of `seed` with the flight
+/// volume [bounds_min, bounds_max]: everything seeded by the world and confined to its volume,
+/// one planner cycle per ESDF revision (no timers). Throws std::invalid_argument naming an
+/// unknown method or goal finding.
+TrialGraphOptions trialGraphOptions(const std::string& method, const std::string& goal_finding,
+                                    uint64_t seed, const Eigen::Vector3d& bounds_min,
+                                    const Eigen::Vector3d& bounds_max);
 
 // ---- trials.csv, shared by `thicket-bench run` and `thicket-bench experiment` ----
 

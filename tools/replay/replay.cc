@@ -33,37 +33,14 @@ const std::vector<ReplayedModule>& replayedModules() {
 }
 
 Expected<GraphOptions> trialGraphOptions(const sim_world_t& world, const std::string& method) {
-  // As tools/bench/trials.cc builds a trial's nodes: default bridge and mapper (map id seed + 1),
-  // the method's explorer strategy, the planner with gradient goal finding and the soft goal,
-  // one cycle per ESDF revision, everything seeded by the world and confined to its volume.
   const Eigen::Vector3d bounds_min(world.bounds_min[0], world.bounds_min[1], world.bounds_min[2]);
   const Eigen::Vector3d bounds_max(world.bounds_max[0], world.bounds_max[1], world.bounds_max[2]);
-  GraphOptions options;
-  options.map_id = world.seed + 1;
-  if (method != "none") {
-    const auto& strategies = explorer::strategyNames();
-    if (std::find(strategies.begin(), strategies.end(), method) == strategies.end()) {
-      std::string known = "none";
-      for (const std::string& s : strategies) known += ", " + s;
-      return unexpected("unknown method '" + method + "' (known: " + known + ")");
-    }
-    explorer::ExplorerNodeOptions explorer;
-    explorer.explorer.strategy = method;
-    explorer.explorer.seed = world.seed;
-    explorer.explorer.flight_volume_min = bounds_min;
-    explorer.explorer.flight_volume_max = bounds_max;
-    options.explorer = explorer;
+  try {
+    return bench::trialGraphOptions(method, "soft", static_cast<uint64_t>(world.seed), bounds_min,
+                                    bounds_max);
+  } catch (const std::invalid_argument& e) {
+    return unexpected(e.what());
   }
-  local_planner::LocalPlannerNodeOptions& planner = options.planner;
-  planner.replan_rate = 0;
-  planner.setpoint_rate = 0;
-  planner.planner.goal_finder.method = "gradient";
-  planner.planner.soft_goal = true;
-  planner.planner.seed = world.seed;
-  planner.planner.flight_volume_min = bounds_min;
-  planner.planner.flight_volume_max = bounds_max;
-  planner.planner.use_explorer = options.explorer.has_value();
-  return options;
 }
 
 Expected<sim_world_t> simWorld(const std::vector<LogEvent>& events) {

@@ -22,12 +22,9 @@
 
 #include <thicket/sim_world_t.hpp>
 
-#include "explorer_node.h"
-#include "local_planner_node.h"
-#include "mapper_node.h"
 #include "thicket/common/expected.h"
 #include "thicket/common/lcm_log.h"
-#include "vio_bridge_node.h"
+#include "trials.h"
 
 namespace thicket::replay {
 
@@ -42,18 +39,11 @@ struct ReplayedModule {
 const std::vector<ReplayedModule>& replayedModules();
 
 /// The nodes' options, as the recorded trial built them.
-struct GraphOptions {
-  vio_bridge::VioBridgeNodeOptions bridge;
-  mapper::MapperNodeOptions mapper;
-  int64_t map_id = 0;
-  /// Absent for the method "none": no explorer in the graph.
-  std::optional<explorer::ExplorerNodeOptions> explorer;
-  local_planner::LocalPlannerNodeOptions planner;
-};
+using GraphOptions = bench::TrialGraphOptions;
 
-/// The options tools/bench/trials.cc gives the nodes of a trial of `method` (soft goal finding)
-/// on the world `world` (its SIM_WORLD message: the seed and the flight volume). The error names
-/// an unknown method.
+/// The options a benchmark trial gives the nodes (bench::trialGraphOptions) for `method` (soft
+/// goal finding) on the world `world` (its SIM_WORLD message: the seed and the flight volume).
+/// The error names an unknown method.
 Expected<GraphOptions> trialGraphOptions(const sim_world_t& world, const std::string& method);
 
 /// The SIM_WORLD message of a log's events, or why there is none.
