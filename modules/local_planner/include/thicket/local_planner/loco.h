@@ -51,7 +51,7 @@ struct LocoOptions {
   double w_g = 2.5;               ///< weight of the soft goal cost
   double robot_radius = 0.5;      ///< [m]
   double potential_margin = 0.5;  ///< ε = robot_radius + this [m]
-  double sample_dt = 0.1;         ///< Δt of the collision integral and of acceptance [s]
+  double sample_dt = 0.1;         ///< Δt of the collision integral [s]
   /// Accepted samples need distance >= robot_radius + this: covers the path between samples
   /// (v_max Δt / 2) and the ESDF's discretization [m].
   double clearance_margin = 0.1;
@@ -111,8 +111,8 @@ class LocoProblem {
   /// Checks a spline for acceptance.
   struct Check {
     std::string reason;           ///< empty when accepted, else why not
-    bool collision_free = false;  ///< every Δt sample known and clear
-    double min_distance = 0;      ///< over the Δt samples, 0 where unknown [m]
+    bool collision_free = false;  ///< every 0.02 s sample known and clear
+    double min_distance = 0;      ///< over the 0.02 s samples, 0 where unknown [m]
     double max_speed = 0;         ///< at 0.01 s [m/s]
     double max_acceleration = 0;  ///< at 0.01 s [m/s²]
   };
