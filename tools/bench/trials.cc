@@ -122,13 +122,12 @@ FlagError setText(std::string& value, const std::string& text) {
 template <class Row, size_t N>
 FlagError setChoice(std::string& value, const std::string& what, const Row (&table)[N],
                     const std::string& text) {
-  for (const Row& row : table) {
-    if (text == row.name) {
-      value = text;
-      return {};
-    }
+  try {
+    value = findRow(table, text, what.c_str()).name;
+    return {};
+  } catch (const std::invalid_argument& e) {
+    return e.what();
   }
-  return "unknown " + what + " '" + text + "' (known: " + rowNames(table) + ")";
 }
 
 using Setter = FlagSetter<RunOptions>;
