@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
-#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -153,17 +152,11 @@ FlagError setShard(ExperimentOptions& o, const std::string& text) {
       "--shard must be i/N with 0 <= i < N (e.g. 0/4 ... 3/4), not '" + text + "'";
   const size_t slash = text.find('/');
   if (slash == std::string::npos) return message;
-  int index = -1, count = 0;
-  const char* end = text.data() + text.size();
-  const auto [index_end, index_error] = std::from_chars(text.data(), text.data() + slash, index);
-  const auto [count_end, count_error] = std::from_chars(text.data() + slash + 1, end, count);
-  if (index_error != std::errc() || count_error != std::errc() ||
-      index_end != text.data() + slash || count_end != end || count < 1 || index < 0 ||
-      index >= count) {
-    return message;
-  }
-  o.shard_index = index;
-  o.shard_count = count;
+  const std::optional<int> index = integerNumber<int>(text.substr(0, slash));
+  const std::optional<int> count = integerNumber<int>(text.substr(slash + 1));
+  if (!index || !count || *count < 1 || *index < 0 || *index >= *count) return message;
+  o.shard_index = *index;
+  o.shard_count = *count;
   return {};
 }
 
@@ -454,7 +447,7 @@ struct Row {
   std::string source;  // the output folder the row was read from (merge copies its files)
 
   const std::string& cell(const std::string& name) const { return cells[column(name)]; }
-  bool failed() const { return cell("end_reason").rfind("error: ", 0) == 0; }
+  bool failed() const { return failedToRun(cell("end_reason")); }
 };
 
 std::string timingsText(const std::map<std::string, StageTiming>& timings) {
@@ -467,17 +460,16 @@ std::string timingsText(const std::map<std::string, StageTiming>& timings) {
 }
 
 bool parseDouble(const std::string& text, double& value) {
-  if (text.empty()) return false;
-  char* end = nullptr;
-  errno = 0;
-  value = std::strtod(text.c_str(), &end);
-  return errno == 0 && end == text.c_str() + text.size() && std::isfinite(value);
+  const std::optional<double> parsed = finiteNumber(text);
+  if (parsed) value = *parsed;
+  return parsed.has_value();
 }
 
 template <class Int>
 bool parseInt(const std::string& text, Int& value) {
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  return error == std::errc() && end == text.data() + text.size();
+  const std::optional<Int> parsed = integerNumber<Int>(text);
+  if (parsed) value = *parsed;
+  return parsed.has_value();
 }
 
 std::optional<std::map<std::string, StageTiming>> parseTimings(const std::string& text) {
@@ -789,7 +781,7 @@ Row flyTrial(const TrialSpec& spec, const FlyContext& context) {
     TrialResult failed;
     failed.trial = spec.trial;
     failed.seed = spec.seed;
-    failed.end_reason = std::string("error: ") + e.what();
+    failed.end_reason = failedEndReason(e.what());
     return rowFromResult(spec, failed);
   }
 }

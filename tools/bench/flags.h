@@ -2,6 +2,7 @@
 // flag applied by a setter that validates its value and says what is wrong with it.
 #pragma once
 
+#include <charconv>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -21,15 +22,28 @@ using FlagError = std::optional<std::string>;
 template <class Options>
 using FlagSetter = std::function<FlagError(Options&, const std::string&)>;
 
-/// `text`, all of it, as a finite number; nothing when it is not one.
+/// `text`, all of it, as a finite number; nothing when it is not one (also for an empty text,
+/// surrounding spaces or a trailing unit). Flags and the benchmark's CSV cells read numbers
+/// through these two.
 inline std::optional<double> finiteNumber(const std::string& text) {
-  try {
-    size_t used = 0;
-    const double parsed = std::stod(text, &used);
-    if (used == text.size() && std::isfinite(parsed)) return parsed;
-  } catch (const std::exception&) {
+  double value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (text.empty() || error != std::errc() || end != text.data() + text.size() ||
+      !std::isfinite(value)) {
+    return std::nullopt;
   }
-  return std::nullopt;
+  return value;
+}
+
+/// `text`, all of it, as an integer of type Int; nothing when it is not one or out of range.
+template <class Int>
+std::optional<Int> integerNumber(const std::string& text) {
+  Int value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (text.empty() || error != std::errc() || end != text.data() + text.size()) {
+    return std::nullopt;
+  }
+  return value;
 }
 
 /// A finite number >= 0.
@@ -54,14 +68,10 @@ inline FlagError parseAnyNumber(double& value, const std::string& flag, const st
 
 template <class Int>
 FlagError parseInteger(Int& value, const std::string& flag, const std::string& text, Int min) {
-  try {
-    size_t used = 0;
-    const long long parsed = std::stoll(text, &used);
-    if (used == text.size() && parsed >= min && parsed <= std::numeric_limits<Int>::max()) {
-      value = static_cast<Int>(parsed);
-      return {};
-    }
-  } catch (const std::exception&) {
+  const std::optional<Int> parsed = integerNumber<Int>(text);
+  if (parsed && *parsed >= min) {
+    value = *parsed;
+    return {};
   }
   return flag + " must be an integer >= " + std::to_string(min) + ", not '" + text + "'";
 }

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -23,6 +22,7 @@
 
 #include "csv.h"
 #include "experiments.h"
+#include "flags.h"
 #include "thicket/common/statistics.h"
 #include "thicket/sim/world.h"
 #include "trials.h"
@@ -66,27 +66,24 @@ class Columns {
                 std::optional<double> empty = std::nullopt) const {
     const std::string& text = row.cells[column];
     if (text.empty() && empty) return *empty;
-    double value = 0;
-    const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-    if (text.empty() || error != std::errc() || end != text.data() + text.size() ||
-        !std::isfinite(value)) {
+    const std::optional<double> value = finiteNumber(text);
+    if (!value) {
       throw InputError(csvWhere(file_, row.line, column) + " (" + table_.header[column] + "): '" +
                        text + "' is not a finite number");
     }
-    return value;
+    return *value;
   }
 
   int64_t integer(const CsvRecord& row, size_t column,
                   std::optional<int64_t> empty = std::nullopt) const {
     const std::string& text = row.cells[column];
     if (text.empty() && empty) return *empty;
-    int64_t value = 0;
-    const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-    if (text.empty() || error != std::errc() || end != text.data() + text.size()) {
+    const std::optional<int64_t> value = integerNumber<int64_t>(text);
+    if (!value) {
       throw InputError(csvWhere(file_, row.line, column) + " (" + table_.header[column] + "): '" +
                        text + "' is not an integer");
     }
-    return value;
+    return *value;
   }
 
   bool flag(const CsvRecord& row, size_t column, std::optional<bool> empty = {}) const {
@@ -126,7 +123,7 @@ struct Trial {
   int64_t num_replans = 0;
   std::map<std::string, StageTiming> timings;
 
-  bool ran() const { return end_reason.rfind("error: ", 0) != 0; }
+  bool ran() const { return !failedToRun(end_reason); }
 };
 
 std::string densityText(double density) {

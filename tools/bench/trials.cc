@@ -248,6 +248,14 @@ std::unique_ptr<Node> stereoDepthNode(lcm::LCM& lcm, const RunOptions& options,
 
 }  // namespace
 
+std::string failedEndReason(const std::string& why) {
+  return "error: " + why;
+}
+
+bool failedToRun(const std::string& end_reason) {
+  return end_reason.rfind("error: ", 0) == 0;
+}
+
 sim::World trialWorld(const RunOptions& options, int trial) {
   const std::string worlds_dir = options.worlds_dir.empty()
                                      ? std::string(THICKET_SOURCE_DIR) + "/config/worlds"
@@ -493,13 +501,9 @@ TrialResult attemptTrial(const RunOptions& options, int trial) {
     TrialResult failed;
     failed.trial = trial;
     failed.seed = seed;
-    failed.end_reason = std::string("error: ") + e.what();
+    failed.end_reason = failedEndReason(e.what());
     return failed;
   }
-}
-
-bool failedToRun(const TrialResult& result) {
-  return result.end_reason.rfind("error: ", 0) == 0;
 }
 
 // "trial 3/20 seed 3: goal reached, 17.2 m, 23 replans, 4.1 s"; the error alone for a trial that
@@ -507,7 +511,7 @@ bool failedToRun(const TrialResult& result) {
 std::string progressLine(const TrialResult& r, int trials) {
   std::string line = "trial " + std::to_string(r.trial) + "/" + std::to_string(trials) + " seed " +
                      std::to_string(r.seed) + ": " + r.end_reason;
-  if (!failedToRun(r)) {
+  if (!failedToRun(r.end_reason)) {
     char numbers[128];
     std::snprintf(numbers, sizeof(numbers), ", %.1f m, %d replans, %.1f s", r.path_length_m,
                   r.num_replans, r.wall_time_s);
@@ -585,7 +589,9 @@ int runCommand(const std::vector<std::string>& args) {
     const std::vector<TrialResult> results = runAll(*options);
     writeTrials(*options, spec->name, results);
     printSummary(*options, spec->name, results);
-    const auto failed = std::count_if(results.begin(), results.end(), failedToRun);
+    const auto failed = std::count_if(results.begin(), results.end(), [](const TrialResult& r) {
+      return failedToRun(r.end_reason);
+    });
     if (failed > 0) {
       std::fprintf(stderr, "thicket-bench run: %lld of %d trials could not run\n",
                    static_cast<long long>(failed), options->trials);

@@ -76,6 +76,11 @@ struct TrialResult {
 /// lives as long as the trial.
 using TrialObserver = std::function<std::unique_ptr<Node>(lcm::LCM&)>;
 
+/// The end reason of a trial that could not run ("error: <why>"), and the test for one: such a
+/// row is listed but left out of every statistic, and a resumed run tries the trial again.
+std::string failedEndReason(const std::string& why);
+bool failedToRun(const std::string& end_reason);
+
 /// Flies `world` as trial `trial` of `options`, with `observer`'s node on the graph if given.
 /// Throws what the nodes throw on bad options.
 TrialResult runTrial(const RunOptions& options, const sim::World& world, int trial,
