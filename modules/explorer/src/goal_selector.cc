@@ -24,6 +24,9 @@ void ExplorerOptions::declare(Params& p) {
   p("p_goal", p_goal, "P_g: probability of proposing the global goal", Range::between(0, 1));
   p("min_clearance", min_clearance, "candidates need at least this ESDF distance [m]",
     Range::positive());
+  p("reachable", reachable,
+    "local_exploration: candidates need a straight line from the start that keeps the trees' "
+    "clearance");
   p("max_draws", max_draws, "random draws per request", Range::between(1, 10000000));
   p("flight_volume_min", flight_volume_min, "candidates lie in this box: its low corner [m]");
   p("flight_volume_max", flight_volume_max, "... and its high corner [m]");
@@ -114,11 +117,19 @@ class LocalExplorationSelector final : public GoalSelector {
     }
     const ExplorationGain& gain = gains_.forVoxelSize(maps.tsdf->voxelSize());
     const double d_g = (request.goal - request.start).norm() + options_.radius;
+    const std::optional<double> line_clearance =
+        options_.reachable ? detail::treeClearance(options_, *maps.esdf, request.start)
+                           : std::nullopt;
     double best = -std::numeric_limits<double>::infinity();
     int candidates = 0;
     for (int draw = 0; draw < options_.max_draws && candidates < options_.candidates; ++draw) {
       const auto x = drawInBall(rng, request.start, options_.radius, options_, 1);
       if (!x || !detail::observedFree(options_, maps, *x)) continue;
+      if (line_clearance &&
+          !detail::esdfSegmentFree(options_, *maps.esdf, request.start, *x, *line_clearance,
+                                   0.5 * maps.esdf->voxelSize())) {
+        continue;
+      }
       ++candidates;
       // Face away from the start, then look: the gain is that of the view the vehicle will have.
       const Eigen::Vector3d away = *x - request.start;
@@ -142,8 +153,9 @@ class LocalExplorationSelector final : public GoalSelector {
                     candidates, best);
     } else {
       std::snprintf(text, sizeof(text),
-                    "no observed free point within %.1f m of the start in %d draws",
-                    options_.radius, options_.max_draws);
+                    "no observed free point%s within %.1f m of the start in %d draws",
+                    line_clearance ? " reachable in a straight line" : "", options_.radius,
+                    options_.max_draws);
     }
     proposal.reason = text;
     return proposal;

@@ -86,6 +86,34 @@ TEST(GoalSelector, LocalExplorationPicksAnObservedFreePointThatSeesUnknownSpace)
   }
 }
 
+// A wall across x = 1.6 .. 2.4 with a slot |y| < 0.5: 1 m wide, narrower than twice min_clearance,
+// so no straight line through it keeps the clearance. Behind the wall lie the candidates nearest
+// the goal; with `reachable` none may be proposed, yet every request still finds a candidate.
+TEST(GoalSelector, LocalExplorationWithReachableProposesOnlyPointsAStraightLineReaches) {
+  const ObstacleDistance wall = [](const Eigen::Vector3d& p) {
+    const double dx = std::max({1.6 - p.x(), p.x() - 2.4, 0.0});
+    const double dy = std::max(0.5 - std::abs(p.y()), 0.0);
+    return dx == 0 && dy == 0 ? -0.1 : std::hypot(dx, dy);
+  };
+  const HandMap map = observedBox({-4, -5, 0.4}, {6, 5, 2.6}, wall);
+  ExplorerOptions o = optionsFor("local_exploration");
+  o.p_goal = 0;
+  const auto behind = [&](bool reachable) {
+    o.reachable = reachable;
+    const auto selector = makeGoalSelector(o);
+    int count = 0;
+    for (int cycle = 0; cycle < 20; ++cycle) {
+      const Proposal p = selector->select(request(cycle), map.view());
+      EXPECT_TRUE(p.found) << p.reason;
+      if (!p.found) continue;
+      count += p.waypoints[0].x() > 2.4;
+    }
+    return count;
+  };
+  EXPECT_GT(behind(false), 0);  // without it, the slot does not stop the paper's scoring
+  EXPECT_EQ(behind(true), 0);
+}
+
 TEST(GoalSelector, LocalExplorationSaysWhenThereIsNoMapOrNoCandidate) {
   ExplorerOptions o = optionsFor("local_exploration");
   o.p_goal = 0;

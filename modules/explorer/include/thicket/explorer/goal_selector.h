@@ -97,6 +97,9 @@ struct ExplorerOptions {
   double p_goal = 0.5;  ///< P_g: probability of proposing the global goal
   /// Candidates must be this far from obstacles in the ESDF, so the planner can end there [m].
   double min_clearance = 0.6;
+  /// local_exploration: candidates must be reachable from the start along a straight line that
+  /// keeps the clearance RRT* and NBVP trees keep (treeClearance).
+  bool reachable = false;
   int max_draws = 1000;  ///< random draws per request before giving up on finding N candidates
   Eigen::Vector3d flight_volume_min = Eigen::Vector3d(-1000, -1000, 0.5);
   Eigen::Vector3d flight_volume_max = Eigen::Vector3d(1000, 1000, 100);
