@@ -576,6 +576,46 @@ std::string throughputSection(const std::vector<Trial>& trials,
   return text;
 }
 
+// Collisions of the conservative methods in every experiment (the target is zero), and every
+// such trial by key with its executed clearance, so a regression names the worlds to replay.
+std::string safetySection(const std::vector<Trial>& trials) {
+  std::map<std::string, Tally> tallies;  // experiment -> collisions (as successes) / trials
+  std::map<std::string, double> closest;
+  std::vector<const Trial*> collided;
+  for (const Trial& t : trials) {
+    if (!t.ran() || !conservativeMethod(t.method)) continue;
+    tallies[t.experiment].add(t.collision);
+    const auto [it, inserted] = closest.emplace(t.experiment, t.min_clearance_m);
+    if (!inserted) it->second = std::min(it->second, t.min_clearance_m);
+    if (t.collision) collided.push_back(&t);
+  }
+  if (tallies.empty()) return "";
+  std::vector<std::vector<std::string>> rows;
+  Tally all;
+  for (const auto& [experiment, tally] : tallies) {
+    rows.push_back({experiment, std::to_string(tally.trials), std::to_string(tally.successes),
+                    print("%.4f", closest[experiment])});
+    all.trials += tally.trials;
+    all.successes += tally.successes;
+  }
+  rows.push_back({"all", std::to_string(all.trials), std::to_string(all.successes), "-"});
+  std::string text =
+      "## Safety: collisions of the conservative methods\n\n"
+      "Every method but rrt_star_optimistic must never collide (target: zero). A collision is "
+      "an executed path closer to an obstacle than the robot radius.\n\n" +
+      markdownTable(
+          {"experiment", "conservative trials", "collisions", "smallest executed clearance [m]"},
+          rows);
+  if (!collided.empty()) {
+    text += "Trials that collided (executed clearance):\n\n";
+    for (const Trial* t : collided) {
+      text += "- `" + t->key + "` (" + print("%.4f", t->min_clearance_m) + " m)\n";
+    }
+    text += "\n";
+  }
+  return text;
+}
+
 std::string e1Section(Report& report, const std::vector<Trial>& trials) {
   SuccessTable table;
   for (const Trial* t : select(trials, "E1")) table[t->goal_finding][t->density].add(t->success);
@@ -980,6 +1020,7 @@ std::string writeReport(const std::string& out_dir, const ReportOptions& options
     std::string text = "# thicket benchmark report\n\n";
     text += overviewSection(trials, runs, has_e5, e5.size());
     text += throughputSection(trials, runs);
+    text += safetySection(trials);
     text += e1Section(report, trials);
     text += e2Section(report, trials);
     text += e3Section(report, trials);

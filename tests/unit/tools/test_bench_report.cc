@@ -58,6 +58,7 @@ struct Row {
   int seed = 0;
   int replan_limit = 120;
   bool success = false, collision = false;
+  double clearance = 0.8;
   double length = 10;
   double path_time = 10, wall_time = 2;
   bool solvable = true;
@@ -90,8 +91,8 @@ std::string line(const Row& r) {
   std::ostringstream s;
   s << r.experiment << "," << r.trial << "," << r.seed << "," << r.scenario << "," << density << ","
     << r.method << "," << r.goal_finding << "," << r.sensor << "," << r.replan_limit << ","
-    << r.success << "," << r.collision << ",0.8,1,12," << (r.success ? 0.1 : 5.0) << "," << r.length
-    << ",13," << r.path_time << "," << r.solvable << "," << r.wall_time << ","
+    << r.success << "," << r.collision << "," << r.clearance << ",1,12," << (r.success ? 0.1 : 5.0)
+    << "," << r.length << ",13," << r.path_time << "," << r.solvable << "," << r.wall_time << ","
     << quoted(r.end_reason);
   for (const std::string& stage : kStages) {
     const auto found = r.timings.find(stage);
@@ -181,6 +182,7 @@ std::vector<Row> e2Rows() {
         if ((method == "rrt_star_optimistic" || method == "nbvp") && density == 0.1 &&
             seed == (method == "nbvp" ? 1 : 0)) {
           r.collision = true;
+          r.clearance = method == "nbvp" ? 0.4988 : 0.31;
           r.end_reason = "collision";
         }
         rows.push_back(r);
@@ -404,6 +406,17 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   EXPECT_EQ(cell(throughput, "all", "simulated [s]"), "780");
   EXPECT_EQ(cell(throughput, "E2", "simulated s per wall s, per thread"), "5.00");
   EXPECT_NE(md.find("7.80 simulated s per wall s"), std::string::npos);
+
+  // Safety: the conservative trials that ran per experiment; nbvp's collision is listed, the
+  // collision of rrt_star_optimistic (allowed to plan through unknown space) is not.
+  const Table safety = tableAfter(md, "## Safety: collisions of the conservative methods");
+  EXPECT_EQ(cell(safety, "E2", "conservative trials"), "30");
+  EXPECT_EQ(cell(safety, "E2", "collisions"), "1");
+  EXPECT_EQ(cell(safety, "E2", "smallest executed clearance [m]"), "0.4988");
+  EXPECT_EQ(cell(safety, "E1", "collisions"), "0");
+  EXPECT_EQ(cell(safety, "all", "collisions"), "1");
+  EXPECT_NE(md.find("- `E2/paper/d0.1/nbvp/soft/depth/s1` (0.4988 m)"), std::string::npos);
+  EXPECT_EQ(md.find("- `E2/paper/d0.1/rrt_star_optimistic/soft/depth/s0` ("), std::string::npos);
 
   // E1: line 8/10 = 80 % [49, 94] at 0.1 (the trial that could not run is not counted).
   const Table e1 = tableAfter(md, "## E1: optimization only, success per goal finding and density");
