@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -801,8 +802,9 @@ std::string formatDuration(double seconds) {
 
 // One stderr line at most every 2 s and one at the end:
 // "[E2] 1234/3000 done (12 resumed), 2.1 trials/s, ETA 14m10s, last: paper d0.2 random s7 goal
-// reached". The counts are those of the last trial's experiment in this shard; the rate and the
-// ETA are the whole run's (trials run by this invocation per wall-clock second).
+// reached". The counts are those of the last trial's experiment in this shard; the rate is that
+// of the last kRateWindow trials this invocation finished (E4's trials take several times as
+// long as E2's), the ETA the trials left in the whole run at that rate.
 class Progress {
  public:
   Progress(const std::vector<const TrialSpec*>& shard, const std::set<std::string>& done,
@@ -822,12 +824,14 @@ class Progress {
   void finished(const TrialSpec& spec, const Row& row) {
     const std::lock_guard lock(mutex_);
     ++run_;
+    const auto now = std::chrono::steady_clock::now();
+    finish_times_.push_back(now);
+    if (finish_times_.size() > kRateWindow) finish_times_.pop_front();
     ++counts_[spec.experiment].done;
     experiment_ = spec.experiment;
     last_ = spec.scenario + " d" + formatNumber("%g", spec.density) + " " + spec.method +
             (spec.goal_finding == "soft" ? "" : " " + spec.goal_finding) + " s" +
             std::to_string(spec.seed) + " " + row.cell("end_reason");
-    const auto now = std::chrono::steady_clock::now();
     unprinted_ = true;
     if (now - printed_ >= std::chrono::seconds(2)) {
       printed_ = now;
@@ -845,8 +849,12 @@ class Progress {
  private:
   void print(std::chrono::steady_clock::time_point now) const {
     const Count& count = counts_.at(experiment_);
-    const double elapsed = std::chrono::duration<double>(now - started_).count();
-    const double rate = elapsed > 0 ? static_cast<double>(run_) / elapsed : 0;
+    // Trials per second: over the window once it is full, before that since the start.
+    const bool full = finish_times_.size() == kRateWindow;
+    const double elapsed =
+        std::chrono::duration<double>(now - (full ? finish_times_.front() : started_)).count();
+    const double trials = full ? static_cast<double>(kRateWindow - 1) : static_cast<double>(run_);
+    const double rate = elapsed > 0 ? trials / elapsed : 0;
     const size_t left = to_run_ - run_;
     const std::string eta = left == 0  ? "0s"
                             : rate > 0 ? formatDuration(static_cast<double>(left) / rate)
@@ -860,7 +868,9 @@ class Progress {
   struct Count {
     int total = 0, done = 0, resumed = 0;
   };
+  static constexpr size_t kRateWindow = 50;
   std::mutex mutex_;
+  std::deque<std::chrono::steady_clock::time_point> finish_times_;
   std::map<std::string, Count> counts_;
   std::string experiment_;
   std::string last_;
