@@ -1120,7 +1120,7 @@ int experimentCommand(const std::vector<std::string>& args) {
       "run\n",
       shard.c_str(), in_shard.size(), to_run.size(), skipped, options.out.c_str(), failed.load());
   if (failed > 0) status = 1;
-  if (!finish(command, options.out)) status = 1;
+  // The run log first, so the report lists this invocation too.
   try {
     const double wall_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -1130,6 +1130,7 @@ int experimentCommand(const std::vector<std::string>& args) {
     warn(command, e.what());
     status = 1;
   }
+  if (!finish(command, options.out)) status = 1;
   return status;
 }
 
@@ -1234,12 +1235,12 @@ int mergeCommand(const std::vector<std::string>& args) {
     replaceFile(options.out + "/rows/merged.csv", rowsText(rows));
     std::printf("merged %zu rows of %zu folders into %zu trials\n", gathered, inputs.size(),
                 rows.size());
-    if (!finish(command, options.out)) return 1;
     const double wall_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     appendRunLog(options.out,
                  run_log_lines + runLogLine(started_utc, wall_s, commandLine(command, args), 1,
                                             "0/1", 0, rows.size()));
+    if (!finish(command, options.out)) return 1;
   } catch (const std::exception& e) {
     warn(command, e.what());
     return 1;

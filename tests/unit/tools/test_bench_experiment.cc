@@ -297,6 +297,10 @@ TEST_F(BenchExperimentRun, WritesTheTrialsRowsPathsAndRunLog) {
   EXPECT_EQ(run_log[1][5], "4");
   EXPECT_EQ(run_log[1][6], "0");
   EXPECT_EQ(std::to_string(::sysconf(_SC_NPROCESSORS_ONLN)), run_log[1][8]);
+  // The report lists this invocation (the run log is written before it).
+  const std::string summary = readFile(dir() + "/summary.md");
+  EXPECT_NE(summary.find("### Invocations (run_log.csv)"), std::string::npos);
+  EXPECT_NE(summary.find("thicket-bench experiment --experiment E2"), std::string::npos);
 }
 
 TEST_F(BenchExperimentRun, ResumesAKilledRunWithTheMissingTrialsOnly) {
@@ -369,6 +373,7 @@ TEST_F(BenchExperimentRun, ShardsOnOneThreadMergeIntoTheRowsOfOneRunOnTwo) {
   ASSERT_EQ(run_log.size(), 4u);
   EXPECT_EQ(run_log[3][2].rfind("thicket-bench merge", 0), 0u);
   EXPECT_EQ(run_log[3][6], "4");
+  EXPECT_NE(readFile(merged + "/summary.md").find("thicket-bench merge --out"), std::string::npos);
 
   // Merging again, with a shard twice, changes nothing.
   const CliResult twice =
