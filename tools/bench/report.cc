@@ -111,12 +111,9 @@ CsvTable readTable(const std::string& path) {
 // One row of trials.csv (the contract of the benchmark's parts).
 struct Trial {
   int line = 0;
-  std::string key;  // TrialSpec::key()
-  std::string experiment, scenario, method, goal_finding, sensor, end_reason;
-  int64_t trial = 0;
-  uint64_t seed = 0;
-  double density = 0;
-  int64_t replan_limit = 0;
+  TrialSpec spec;   // what was flown
+  std::string key;  // spec.key()
+  std::string end_reason;
   bool success = false, collision = false, feasible = false, solvable = false;
   double min_clearance_m = 0, distance_to_goal_m = 0, path_length_m = 0, straight_line_m = 0,
          path_time_s = 0, wall_time_s = 0;
@@ -128,19 +125,6 @@ struct Trial {
 
 std::string densityText(double density) {
   return print("%g", density);
-}
-
-// The trial key of the contract (TrialSpec::key(), experiments.h).
-std::string trialKey(const Trial& t) {
-  TrialSpec spec;
-  spec.experiment = t.experiment;
-  spec.scenario = t.scenario;
-  spec.density = t.density;
-  spec.method = t.method;
-  spec.goal_finding = t.goal_finding;
-  spec.sensor = t.sensor;
-  spec.seed = t.seed;
-  return spec.key();
 }
 
 std::vector<Trial> readTrials(const std::string& path) {
@@ -182,13 +166,13 @@ std::vector<Trial> readTrials(const std::string& path) {
   for (const CsvRecord& row : table.rows) {
     Trial t;
     t.line = row.line;
-    t.experiment = row.cells[experiment];
-    t.scenario = row.cells[scenario];
-    t.method = row.cells[method];
-    t.goal_finding = row.cells[goal_finding];
-    t.sensor = row.cells[sensor];
+    t.spec.experiment = row.cells[experiment];
+    t.spec.scenario = row.cells[scenario];
+    t.spec.method = row.cells[method];
+    t.spec.goal_finding = row.cells[goal_finding];
+    t.spec.sensor = row.cells[sensor];
     t.end_reason = row.cells[end_reason];
-    if (t.experiment.empty()) {
+    if (t.spec.experiment.empty()) {
       throw InputError(csvWhere(path, row.line, experiment) + " (experiment): empty");
     }
     // A trial that could not run has no measurements; its cells may be empty.
@@ -196,12 +180,12 @@ std::vector<Trial> readTrials(const std::string& path) {
     const auto zero = ran ? std::nullopt : std::optional<double>(0);
     const auto zero_int = ran ? std::nullopt : std::optional<int64_t>(0);
     const auto no = ran ? std::nullopt : std::optional<bool>(false);
-    t.trial = columns.integer(row, trial);
+    t.spec.trial = static_cast<int>(columns.integer(row, trial));
     const int64_t seed_value = columns.integer(row, seed);
     if (seed_value < 0) throw InputError(csvWhere(path, row.line, seed) + " (seed): negative");
-    t.seed = static_cast<uint64_t>(seed_value);
-    t.density = columns.number(row, density);
-    t.replan_limit = columns.integer(row, replan_limit, zero_int);
+    t.spec.seed = static_cast<uint64_t>(seed_value);
+    t.spec.density = columns.number(row, density);
+    t.spec.replans = static_cast<int>(columns.integer(row, replan_limit, zero_int));
     t.success = columns.flag(row, success, no);
     t.collision = columns.flag(row, collision, no);
     t.min_clearance_m = columns.number(row, min_clearance, zero);
@@ -218,7 +202,7 @@ std::vector<Trial> readTrials(const std::string& path) {
       t.timings[stage] = {columns.number(row, c.median), columns.number(row, c.p95),
                           columns.number(row, c.max)};
     }
-    t.key = trialKey(t);
+    t.key = t.spec.key();
     const auto [previous, inserted] = line_of_key.emplace(t.key, row.line);
     if (!inserted) {
       throw InputError(path + " line " + std::to_string(row.line) + ": trial " + t.key +
@@ -328,7 +312,7 @@ std::set<std::string> keysOf(const Map& map) {
 std::vector<const Trial*> select(const std::vector<Trial>& trials, const std::string& experiment) {
   std::vector<const Trial*> selected;
   for (const Trial& t : trials) {
-    if (t.experiment == experiment && t.ran()) selected.push_back(&t);
+    if (t.spec.experiment == experiment && t.ran()) selected.push_back(&t);
   }
   return selected;
 }
@@ -475,14 +459,14 @@ std::string successMatrix(const SuccessTable& table, const std::vector<std::stri
 std::string overviewSection(const std::vector<Trial>& trials, const std::vector<RunLogRow>& runs,
                             bool has_e5, size_t e5_rows) {
   std::map<std::string, std::vector<const Trial*>> by_experiment;
-  for (const Trial& t : trials) by_experiment[t.experiment].push_back(&t);
+  for (const Trial& t : trials) by_experiment[t.spec.experiment].push_back(&t);
   std::string text = "## Contents\n\n";
   std::vector<std::vector<std::string>> rows;
   for (const auto& [experiment, rows_of] : by_experiment) {
     std::set<std::string> scenarios;
     int ran = 0;
     for (const Trial* t : rows_of) {
-      scenarios.insert(t->scenario);
+      scenarios.insert(t->spec.scenario);
       ran += t->ran();
     }
     std::string scenario_list;
@@ -536,8 +520,8 @@ std::string throughputSection(const std::vector<Trial>& trials,
   int count = 0;
   for (const Trial& t : trials) {
     if (!t.ran()) continue;
-    by_experiment[t.experiment].first += t.path_time_s;
-    by_experiment[t.experiment].second += t.wall_time_s;
+    by_experiment[t.spec.experiment].first += t.path_time_s;
+    by_experiment[t.spec.experiment].second += t.wall_time_s;
     simulated += t.path_time_s;
     wall += t.wall_time_s;
     ++count;
@@ -583,9 +567,9 @@ std::string safetySection(const std::vector<Trial>& trials) {
   std::map<std::string, double> closest;
   std::vector<const Trial*> collided;
   for (const Trial& t : trials) {
-    if (!t.ran() || !conservativeMethod(t.method)) continue;
-    tallies[t.experiment].add(t.collision);
-    const auto [it, inserted] = closest.emplace(t.experiment, t.min_clearance_m);
+    if (!t.ran() || !conservativeMethod(t.spec.method)) continue;
+    tallies[t.spec.experiment].add(t.collision);
+    const auto [it, inserted] = closest.emplace(t.spec.experiment, t.min_clearance_m);
     if (!inserted) it->second = std::min(it->second, t.min_clearance_m);
     if (t.collision) collided.push_back(&t);
   }
@@ -618,7 +602,8 @@ std::string safetySection(const std::vector<Trial>& trials) {
 
 std::string e1Section(Report& report, const std::vector<Trial>& trials) {
   SuccessTable table;
-  for (const Trial* t : select(trials, "E1")) table[t->goal_finding][t->density].add(t->success);
+  for (const Trial* t : select(trials, "E1"))
+    table[t->spec.goal_finding][t->spec.density].add(t->success);
   if (table.empty()) return "";
   const auto order = ordered(keysOf(table), goalFindingNames());
   report.figureData("e1_success.png", "e1_success.csv", successCsv(table, order));
@@ -637,15 +622,15 @@ std::string e2Section(Report& report, const std::vector<Trial>& trials) {
   std::map<std::string, std::vector<double>> lengths;
   std::map<std::string, Tally> overall, overall_solvable;
   for (const Trial* t : e2) {
-    all[t->method][t->density].add(t->success);
-    overall[t->method].add(t->success);
-    on_solvable[t->method];  // every method gets a column
+    all[t->spec.method][t->spec.density].add(t->success);
+    overall[t->spec.method].add(t->success);
+    on_solvable[t->spec.method];  // every method gets a column
     if (t->solvable) {
-      on_solvable[t->method][t->density].add(t->success);
-      overall_solvable[t->method].add(t->success);
+      on_solvable[t->spec.method][t->spec.density].add(t->success);
+      overall_solvable[t->spec.method].add(t->success);
     }
-    collisions[t->method] += t->collision;
-    if (t->success) lengths[t->method].push_back(t->path_length_m);
+    collisions[t->spec.method] += t->collision;
+    if (t->success) lengths[t->spec.method].push_back(t->path_length_m);
   }
   const auto order = ordered(keysOf(all), methodNames());
   report.figureData("e2_success.png", "e2_success.csv", successCsv(all, order));
@@ -681,12 +666,13 @@ std::string e3Section(Report& report, const std::vector<Trial>& trials) {
   std::map<std::string, std::pair<const Trial*, const Trial*>> worlds;  // random, local_exploration
   Tally random_success, le_success;
   for (const Trial* t : select(trials, "E2")) {
-    const std::string world = t->scenario + "/" + densityText(t->density) + "/" + t->goal_finding +
-                              "/" + t->sensor + "/" + std::to_string(t->seed);
-    if (t->method == "random") {
+    const std::string world = t->spec.scenario + "/" + densityText(t->spec.density) + "/" +
+                              t->spec.goal_finding + "/" + t->spec.sensor + "/" +
+                              std::to_string(t->spec.seed);
+    if (t->spec.method == "random") {
       worlds[world].first = t;
       random_success.add(t->success);
-    } else if (t->method == "local_exploration") {
+    } else if (t->spec.method == "local_exploration") {
       worlds[world].second = t;
       le_success.add(t->success);
     }
@@ -702,7 +688,7 @@ std::string e3Section(Report& report, const std::vector<Trial>& trials) {
   for (const auto& [world, pair] : worlds) {
     const auto [random, local] = pair;
     if (!random || !local || !random->success || !local->success) continue;
-    for (Sums* s : {&by_density[random->density], &total}) {
+    for (Sums* s : {&by_density[random->spec.density], &total}) {
       ++s->pairs;
       s->random += random->path_length_m;
       s->local += local->path_length_m;
@@ -743,13 +729,13 @@ std::string e3Section(Report& report, const std::vector<Trial>& trials) {
 std::string forestFigure(Report& report, const std::vector<const Trial*>& e4,
                          const std::string& worlds_dir) {
   std::set<double> densities;
-  for (const Trial* t : e4) densities.insert(t->density);
+  for (const Trial* t : e4) densities.insert(t->spec.density);
   const double density = densities.count(0.2) ? 0.2 : *densities.rbegin();
   std::map<uint64_t, std::vector<const Trial*>> flown;  // seed -> the trials with a path file
   for (const Trial* t : e4) {
-    if (t->density == density &&
+    if (t->spec.density == density &&
         std::filesystem::exists(report.out_dir + "/" + trialPathFile(t->key))) {
-      flown[t->seed].push_back(t);
+      flown[t->spec.seed].push_back(t);
     }
   }
   if (flown.empty())
@@ -760,7 +746,7 @@ std::string forestFigure(Report& report, const std::vector<const Trial*>& e4,
     if (it->second.size() > best->second.size()) best = it;
   }
   const Trial& first = *best->second.front();
-  auto spec = sim::loadScenario(first.scenario, worlds_dir);
+  auto spec = sim::loadScenario(first.spec.scenario, worlds_dir);
   if (!spec) {
     report.problems.push_back("E4 top-down figure: " + spec.error());
     return "";
@@ -782,7 +768,7 @@ std::string forestFigure(Report& report, const std::vector<const Trial*>& e4,
     world_csv += print("cylinder,%.6f,%.6f,0,%.6f,%.6f\n", c.x, c.y, c.radius, c.height);
   }
   std::map<std::string, const Trial*> by_method;
-  for (const Trial* t : best->second) by_method[t->method] = t;
+  for (const Trial* t : best->second) by_method[t->spec.method] = t;
   std::string paths_csv = "method,density,seed,path\n";
   std::string methods;
   for (const std::string& method : ordered(keysOf(by_method), methodNames())) {
@@ -792,7 +778,7 @@ std::string forestFigure(Report& report, const std::vector<const Trial*>& e4,
   }
   report.figureData("e4_forest.png", "e4_forest_world.csv", world_csv);
   report.figureData("e4_forest.png", "e4_forest_paths.csv", paths_csv);
-  return "Top-down: " + first.scenario + " at density " + densityText(density) + ", seed " +
+  return "Top-down: " + first.spec.scenario + " at density " + densityText(density) + ", seed " +
          std::to_string(best->first) + " (" + std::to_string(world->cylinders.size()) +
          " cylinders), flown by " + methods + ".\n\n" +
          report.image("e4_forest.png", "E4: every method on one forest");
@@ -807,10 +793,10 @@ std::string e4Section(Report& report, const std::vector<Trial>& trials,
   std::map<std::string, std::map<double, std::vector<double>>> lengths;
   std::set<double> densities;
   for (const Trial* t : e4) {
-    table[t->method][t->density].add(t->success);
-    collisions[t->method] += t->collision;
-    if (t->success) lengths[t->method][t->density].push_back(t->path_length_m);
-    densities.insert(t->density);
+    table[t->spec.method][t->spec.density].add(t->success);
+    collisions[t->spec.method] += t->collision;
+    if (t->success) lengths[t->spec.method][t->spec.density].push_back(t->path_length_m);
+    densities.insert(t->spec.density);
   }
   const auto order = ordered(keysOf(table), methodNames());
   std::vector<std::string> header = {"method"};
