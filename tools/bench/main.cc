@@ -4,6 +4,7 @@
 //   thicket-bench experiment --out DIR [...]                   the benchmark's experiments
 //   thicket-bench merge --out DIR IN_DIR...                    gathers shards' output folders
 //   thicket-bench subsampling --out DIR [...]                  experiment E5 alone
+//   thicket-bench clearance --out DIR [...]                    the ESDF's clearance error
 //   thicket-bench [--benchmark_filter=REGEX ...]              Google Benchmark (bench_*.cc)
 #include <string>
 #include <string_view>
@@ -11,6 +12,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "clearance.h"
 #include "experiments.h"
 #include "subsampling.h"
 #include "trials.h"
@@ -23,6 +25,7 @@ int main(int argc, char** argv) {
     if (command == "experiment") return thicket::bench::experimentCommand(args);
     if (command == "merge") return thicket::bench::mergeCommand(args);
     if (command == "subsampling") return thicket::bench::subsamplingCommand(args);
+    if (command == "clearance") return thicket::bench::clearanceCommand(args);
   }
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;

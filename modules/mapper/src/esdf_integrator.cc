@@ -4,6 +4,7 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -241,6 +242,35 @@ class MonotoneQueue {
   size_t size_ = 0;
 };
 
+constexpr int kLast = kVoxelsPerSide - 1;
+constexpr float kNoSite = std::numeric_limits<float>::infinity();
+
+// A TSDF block and its six face neighbours (nullptr where not allocated): enough to look up a
+// voxel of the block and each of its face neighbours without hashing.
+class TsdfStar {
+ public:
+  TsdfStar(const TsdfLayer& tsdf, const BlockIndex& b) {
+    blocks_[0] = tsdf.block(b);
+    for (int face = 0; face < 6; ++face) {
+      blocks_[face + 1] = tsdf.block(b + (face % 2 ? 1 : -1) * BlockIndex::Unit(face / 2));
+    }
+  }
+  const TsdfLayer::BlockType* centre() const { return blocks_[0]; }
+  // The voxel at local (x, y, z), at most one coordinate a step outside [0, 15].
+  const TsdfVoxel* voxel(int x, int y, int z) const {
+    int slot = 0;
+    if (x < 0 || x > kLast) slot = x < 0 ? 1 : 2;
+    if (y < 0 || y > kLast) slot = y < 0 ? 3 : 4;
+    if (z < 0 || z > kLast) slot = z < 0 ? 5 : 6;
+    const TsdfLayer::BlockType* block = blocks_[slot];
+    if (block == nullptr) return nullptr;
+    return &block->voxels[(x & 15) + kVoxelsPerSide * ((y & 15) + kVoxelsPerSide * (z & 15))];
+  }
+
+ private:
+  std::array<const TsdfLayer::BlockType*, 7> blocks_;
+};
+
 void checkPosition(const Eigen::Vector3d& p, const char* what) {
   // The bound keeps voxel indices far from int overflow at any sensible voxel size.
   if (!(p.array().abs() <= 1e6).all()) {
@@ -261,6 +291,9 @@ void EsdfIntegratorOptions::declare(Params& p) {
     "observed voxels with |TSDF distance| <= this * voxel size are fixed sites [voxels]",
     Range::positive());
   p("min_weight", min_weight, "TSDF voxels with less weight are unobserved", Range::positive());
+  p("crossing_sites", crossing_sites,
+    "observed voxels next to a TSDF sign change are sites no farther than the interpolated zero "
+    "crossing");
 }
 
 class EsdfIntegrator::Impl {
@@ -301,12 +334,27 @@ class EsdfIntegrator::Impl {
     const Eigen::Vector3d previous = position_;
     position_ = position;
     for (const BlockIndex& b : blocks) {
-      const TsdfLayer::BlockType* tsdf_block = tsdf.block(b);
+      const TsdfStar star(tsdf, b);
       Node* node = find(b);
       // Without either, every voxel was unknown and stays so, except where the occupied sphere
       // arrived, which sphereDifference handles.
-      if (tsdf_block == nullptr && node == nullptr) continue;
-      classifyBlock(b, tsdf_block, node);
+      if (star.centre() != nullptr || node != nullptr) {
+        classifyVoxels(b, star, node, {0, 0, 0}, {kLast, kLast, kLast});
+      }
+      if (!options_.crossing_sites) continue;
+      // A voxel's zero crossings look at its face neighbours: the layer of each neighbouring
+      // block that touches this one may have changed too.
+      for (int face = 0; face < 6; ++face) {
+        const int axis = face / 2;
+        const BlockIndex n = b + (face % 2 ? 1 : -1) * BlockIndex::Unit(axis);
+        if (std::binary_search(blocks.begin(), blocks.end(), n, indexLess)) continue;
+        const TsdfStar neighbour(tsdf, n);
+        if (neighbour.centre() == nullptr) continue;  // unobserved there: nothing depends on b
+        VoxelIndex lo(0, 0, 0), hi(kLast, kLast, kLast);
+        lo[axis] = hi[axis] = face % 2 ? 0 : kLast;
+        Node* neighbour_node = find(n);
+        classifyVoxels(n, neighbour, neighbour_node, lo, hi);
+      }
     }
     if (previous != position) {
       sphereDifference(tsdf, previous, position);
@@ -327,6 +375,7 @@ class EsdfIntegrator::Impl {
     free_ids_.clear();
     voxel_size_ = tsdf.voxelSize();
     band_ = static_cast<float>(options_.surface_band_voxels * voxel_size_);
+    voxel_size_f_ = static_cast<float>(voxel_size_);
     rc2_ = square(options_.clear_radius);
     ro2_ = square(options_.occupied_radius);
     for (int d = 0; d < 26; ++d) {
@@ -341,7 +390,9 @@ class EsdfIntegrator::Impl {
     appendSphereBlocks(position, options_.occupied_radius, blocks);
     std::sort(blocks.begin(), blocks.end(), indexLess);
     blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
-    for (const BlockIndex& b : blocks) classifyBlock(b, tsdf.block(b), nullptr);
+    for (const BlockIndex& b : blocks) {
+      classifyVoxels(b, TsdfStar(tsdf, b), nullptr, {0, 0, 0}, {kLast, kLast, kLast});
+    }
     propagate(/*incremental=*/false);
 
     EsdfUpdateResult result = finish(esdf);
@@ -469,16 +520,48 @@ class EsdfIntegrator::Impl {
     return sum;
   }
 
-  // The class of voxel x of a row from its TSDF voxel (nullptr: none) and the row's spans of the
-  // clear and the occupied sphere.
-  Classified classify(const TsdfVoxel* t, int x, const Span& clear, const Span& occupied) const {
-    if (t != nullptr && t->weight >= min_weight_) {
+  bool observed(const TsdfVoxel* t) const {
+    return t != nullptr && t->weight >= min_weight_ && !std::isnan(t->distance);
+  }
+
+  // The class of voxel (x, y, z) of star's centre block (local coordinates), at global x in a row
+  // with the clear and the occupied sphere's spans. An observed voxel within the surface band is a
+  // site carrying its distance; with crossing_sites, so is one whose face neighbour was observed
+  // on the other side of the surface, at no more than the distance to the zero crossing
+  // interpolated between them. That crossing is where the TSDF puts the surface, whatever the
+  // distances on either side claim: line-of-sight distances stretch at a slant, and a projective
+  // TSDF paints free space behind a thin tree as inside, leaving free voxels next to inside ones
+  // with no site between them, so the free side's distances came from sites far away.
+  Classified classify(const TsdfStar& star, int x, int y, int z, int global_x, const Span& clear,
+                      const Span& occupied) const {
+    const TsdfVoxel* t = star.voxel(x, y, z);
+    if (observed(t)) {
       const float d = t->distance;
-      if (std::abs(d) <= band_) return {kSurface, std::clamp(d, -max_, max_)};
-      if (d > 0) return {kFree, max_};
-      if (d < 0) return {kInside, max_};
-      // NaN: as if unobserved.
+      const float magnitude = std::abs(d);
+      float site = magnitude <= band_ ? magnitude : kNoSite;
+      if (options_.crossing_sites && magnitude > 0) {
+        for (int face = 0; face < 6; ++face) {
+          const int step = face % 2 ? 1 : -1;
+          const TsdfVoxel* n =
+              star.voxel(x + (face / 2 == 0 ? step : 0), y + (face / 2 == 1 ? step : 0),
+                         z + (face / 2 == 2 ? step : 0));
+          if (!observed(n) || !(d > 0 ? n->distance <= 0 : n->distance >= 0)) continue;
+          // A signed distance changes by at most the voxel size between neighbours: a larger
+          // sum means one side is stretched (a slant) or truncated, and which is unknown, so the
+          // crossing is taken midway rather than interpolated toward the smaller value.
+          const float sum = magnitude + std::abs(n->distance);
+          site = std::min(site, sum > voxel_size_f_ ? 0.5f * voxel_size_f_
+                                                    : voxel_size_f_ * magnitude / sum);
+        }
+      }
+      if (site != kNoSite) return {kSurface, std::copysign(std::min(site, max_), d)};
+      return d > 0 ? Classified{kFree, max_} : Classified{kInside, max_};
     }
+    return unobservedClass(global_x, clear, occupied);
+  }
+
+  // The class of an unobserved voxel at x in a row with the spheres' spans.
+  Classified unobservedClass(int x, const Span& clear, const Span& occupied) const {
     if (clear.contains(x)) return {kFree, max_};
     if (occupied.contains(x)) return {kOccupied, 0};
     return {kUnknown, 0};
@@ -534,7 +617,10 @@ class EsdfIntegrator::Impl {
     }
   }
 
-  void classifyBlock(const BlockIndex& b, const TsdfLayer::BlockType* tsdf_block, Node* node) {
+  // Classifies the voxels lo..hi (local coordinates, inclusive) of block b (node: nullptr if not
+  // allocated yet), reclassifying those whose class changed.
+  void classifyVoxels(const BlockIndex& b, const TsdfStar& star, Node* node, const VoxelIndex& lo,
+                      const VoxelIndex& hi) {
     const VoxelIndex origin = b * kVoxelsPerSide;
     const Span whole{origin.x(), origin.x() + kVoxelsPerSide - 1};
     // Blocks clear of a sphere's surface by a voxel take their spans without asking rowSpan.
@@ -551,14 +637,13 @@ class EsdfIntegrator::Impl {
              : relation == kWithin ? whole
                                    : rowSpan(p, r2, y, z, voxel_size_);
     };
-    int lin = 0;
-    for (int z = origin.z(); z < origin.z() + kVoxelsPerSide; ++z) {
-      for (int y = origin.y(); y < origin.y() + kVoxelsPerSide; ++y) {
-        const Span clear = spanOf(to_clear, initial_, rc2_, y, z);
-        const Span occupied = spanOf(to_occupied, position_, ro2_, y, z);
-        for (int x = origin.x(); x < origin.x() + kVoxelsPerSide; ++x, ++lin) {
-          const Classified c = classify(tsdf_block != nullptr ? &tsdf_block->voxels[lin] : nullptr,
-                                        x, clear, occupied);
+    for (int z = lo.z(); z <= hi.z(); ++z) {
+      for (int y = lo.y(); y <= hi.y(); ++y) {
+        const Span clear = spanOf(to_clear, initial_, rc2_, origin.y() + y, origin.z() + z);
+        const Span occupied = spanOf(to_occupied, position_, ro2_, origin.y() + y, origin.z() + z);
+        for (int x = lo.x(); x <= hi.x(); ++x) {
+          const int lin = x + kVoxelsPerSide * (y + kVoxelsPerSide * z);
+          const Classified c = classify(star, x, y, z, origin.x() + x, clear, occupied);
           if (!unchanged(node, lin, c)) reclassify(node, b, lin, c);
         }
       }
@@ -606,9 +691,10 @@ class EsdfIntegrator::Impl {
               for (int x = x0; x <= x1; ++x) {
                 const int i = (x >> 4) - lo.x();
                 const int lin = (x & 15) + kVoxelsPerSide * ((y & 15) + kVoxelsPerSide * (z & 15));
-                const Classified c =
-                    classify(row_tsdf_[i] != nullptr ? &row_tsdf_[i]->voxels[lin] : nullptr, x,
-                             clear, occupied);
+                // Observed voxels do not depend on the spheres (and were classified with their
+                // block if it changed).
+                if (row_tsdf_[i] != nullptr && observed(&row_tsdf_[i]->voxels[lin])) continue;
+                const Classified c = unobservedClass(x, clear, occupied);
                 if (!unchanged(row_nodes_[i], lin, c)) {
                   reclassify(row_nodes_[i], BlockIndex(lo.x() + i, by, bz), lin, c);
                 }
@@ -801,6 +887,7 @@ class EsdfIntegrator::Impl {
   // Set by recompute() from the voxel size.
   double voxel_size_ = 0;
   float band_ = 0;  // [m], compared with float TSDF distances
+  float voxel_size_f_ = 0;
   double rc2_ = 0;
   double ro2_ = 0;
   std::array<float, 26> edge_{};

@@ -421,7 +421,7 @@ void TsdfIntegratorOptions::declare(Params& p) {
   p("max_weight", max_weight, "voxel weights saturate here, so the map can still change",
     Range::positive());
   p("normal_distances", normal_distances,
-    "store distances along the surface normal, not the line of sight (experimental)");
+    "store distances along the surface normal, not the line of sight");
 }
 
 TsdfIntegrator::TsdfIntegrator(TsdfIntegratorOptions options) : options_(options) {

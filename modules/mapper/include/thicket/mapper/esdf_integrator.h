@@ -51,6 +51,10 @@ struct EsdfIntegratorOptions {
   double surface_band_voxels = 1.5;
   /// TSDF voxels with less weight than this are unobserved.
   double min_weight = 1e-6;
+  /// Observed voxels next to a sign change of the TSDF (a face neighbour observed on the other
+  /// side of the surface) are sites too, at no more than the distance to the zero crossing
+  /// interpolated between the two: the surface is there, whatever the distances claim.
+  bool crossing_sites = true;
 
   void declare(Params& p);
 };

@@ -1,0 +1,525 @@
+#include "clearance.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <mutex>
+#include <random>
+#include <stdexcept>
+#include <thread>
+
+#include "flags.h"
+#include "thicket/common/esdf_query.h"
+#include "thicket/common/random.h"
+#include "thicket/sim/ground_truth.h"
+#include "thicket/sim/render.h"
+#include "trials.h"
+
+namespace thicket::bench {
+
+const std::vector<MappingVariant>& mappingVariants() {
+  static const std::vector<MappingVariant> variants = {
+      {"line_of_sight", "TSDF distances along the line of sight; sites in the surface band only",
+       [](mapper::MapperOptions& o) {
+         o.tsdf.normal_distances = false;
+         o.esdf.crossing_sites = false;
+       }},
+      {"normal", "TSDF distances along the surface normal estimated from the depth image",
+       [](mapper::MapperOptions& o) {
+         o.tsdf.normal_distances = true;
+         o.esdf.crossing_sites = false;
+       }},
+      {"crossing", "line of sight, and sites at the TSDF's zero crossings",
+       [](mapper::MapperOptions& o) {
+         o.tsdf.normal_distances = false;
+         o.esdf.crossing_sites = true;
+       }},
+      {"normal_crossing", "normal distances and sites at the zero crossings",
+       [](mapper::MapperOptions& o) {
+         o.tsdf.normal_distances = true;
+         o.esdf.crossing_sites = true;
+       }},
+  };
+  return variants;
+}
+
+namespace {
+
+std::string usage() {
+  std::string variants;
+  for (const MappingVariant& v : mappingVariants()) {
+    variants += "                       " + v.name + ": " + v.description + "\n";
+  }
+  return "usage: thicket-bench clearance --out DIR [options]\n"
+         "  How much clearance the ESDF promises that the world does not have (ESDF distance -\n"
+         "  true distance) within the planning horizon, on maps built along flown paths: the\n"
+         "  real graph (local_exploration) flies every world once, then its frames are mapped\n"
+         "  again under every voxel size, depth noise and mapping variant. Prints the table and\n"
+         "  writes DIR/clearance.csv.\n"
+         "  --flights LIST       scenario:density pairs (default paper:0.3,eth:0.3,forest50:0.2)\n"
+         "  --worlds N           worlds per flight, seeds B..B+N-1 (default 2)\n"
+         "  --seed-base B        (default 0)\n"
+         "  --replans R          replan limit of each flight (default 60)\n"
+         "  --voxel-sizes LIST   [m] (default 0.2,0.1)\n"
+         "  --noises LIST        depth noise sigma at 1 m, sigma = this * z^2 (default 0,0.005)\n"
+         "  --variants LIST      mapping variants (default all):\n" +
+         variants +
+         "  --horizon R          voxels and points within R of the vehicle (default 3) [m]\n"
+         "  --robot-radius R     (default 0.5) [m]\n"
+         "  --band B             voxels and points up to R + B from an obstacle (default 0) [m]\n"
+         "  --points N           random points per frame (default 2000)\n"
+         "  --jobs J             threads (default 1)\n"
+         "  --worlds-dir DIR     where scenario names are looked up\n"
+         "  --out DIR            the output folder\n";
+}
+
+template <class T>
+FlagError parseList(std::vector<T>& out, const std::string& flag, const std::string& text,
+                    const std::function<FlagError(T&, const std::string&)>& parse) {
+  std::vector<T> values;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = text.find(',', start);
+    const std::string item = text.substr(start, comma == std::string::npos ? comma : comma - start);
+    T value{};
+    if (FlagError error = parse(value, item)) return flag + ": " + *error;
+    values.push_back(value);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  out = values;
+  return {};
+}
+
+FlagError parseNumbers(std::vector<double>& out, const std::string& flag, const std::string& text) {
+  return parseList<double>(out, flag, text, [](double& v, const std::string& item) {
+    return parseNumber(v, "'" + item + "'", item);
+  });
+}
+
+FlagError parseNames(std::vector<std::string>& out, const std::string& flag,
+                     const std::string& text) {
+  return parseList<std::string>(out, flag, text, [](std::string& v, const std::string& item) {
+    v = item;
+    return item.empty() ? FlagError("an empty name") : FlagError();
+  });
+}
+
+const std::map<std::string, FlagSetter<ClearanceOptions>>& setters() {
+  using O = ClearanceOptions;
+  using S = const std::string&;
+  static const std::map<std::string, FlagSetter<O>> table = {
+      {"--flights", [](O& o, S v) { return parseNames(o.flights, "--flights", v); }},
+      {"--worlds", [](O& o, S v) { return parseInteger(o.worlds, "--worlds", v, 1); }},
+      {"--seed-base",
+       [](O& o, S v) { return parseInteger<int64_t>(o.seed_base, "--seed-base", v, 0); }},
+      {"--replans", [](O& o, S v) { return parseInteger(o.replans, "--replans", v, 1); }},
+      {"--voxel-sizes", [](O& o, S v) { return parseNumbers(o.voxel_sizes, "--voxel-sizes", v); }},
+      {"--noises", [](O& o, S v) { return parseNumbers(o.noises, "--noises", v); }},
+      {"--variants", [](O& o, S v) { return parseNames(o.variants, "--variants", v); }},
+      {"--horizon", [](O& o, S v) { return parseNumber(o.horizon, "--horizon", v); }},
+      {"--band", [](O& o, S v) { return parseNumber(o.band, "--band", v); }},
+      {"--robot-radius",
+       [](O& o, S v) { return parseNumber(o.robot_radius, "--robot-radius", v); }},
+      {"--points", [](O& o, S v) { return parseInteger(o.points_per_frame, "--points", v, 1); }},
+      {"--jobs", [](O& o, S v) { return parseInteger(o.jobs, "--jobs", v, 1); }},
+      {"--worlds-dir", [](O& o, S v) { return (o.worlds_dir = v, FlagError()); }},
+      {"--out", [](O& o, S v) { return (o.out_dir = v, FlagError()); }},
+  };
+  return table;
+}
+
+const MappingVariant* findVariant(const std::string& name) {
+  for (const MappingVariant& v : mappingVariants()) {
+    if (v.name == name) return &v;
+  }
+  return nullptr;
+}
+
+struct FlightSpec {
+  std::string scenario;
+  double density = 0;
+};
+
+Expected<FlightSpec> parseFlight(const std::string& text) {
+  const size_t colon = text.find(':');
+  const std::optional<double> density =
+      colon == std::string::npos ? std::nullopt : finiteNumber(text.substr(colon + 1));
+  if (!density || *density < 0 || colon == 0) {
+    return unexpected("flight '" + text + "' is not scenario:density");
+  }
+  return FlightSpec{text.substr(0, colon), *density};
+}
+
+// ---- flights ----
+
+// One world flown once: the world and the body pose of every frame the simulator rendered.
+struct Flight {
+  FlightSpec spec;
+  sim::World world;
+  struct Frame {
+    int64_t utime;
+    Pose body;
+  };
+  std::vector<Frame> frames;
+  std::vector<sim::PathSample> path;  // every executed sample, for the pose stream
+};
+
+// The simulator renders frame k at the vehicle's state after k replan periods.
+constexpr int64_t kReplanPeriodUs = 1'000'000;
+
+Flight fly(const ClearanceOptions& options, const FlightSpec& spec, int world_index) {
+  RunOptions run;
+  run.scenario = spec.scenario;
+  run.density = spec.density;
+  run.method = "local_exploration";
+  run.trials = 1;
+  run.seed_base = options.seed_base;
+  run.replans = options.replans;
+  run.worlds_dir = options.worlds_dir.empty() ? std::string(THICKET_SOURCE_DIR) + "/config/worlds"
+                                              : options.worlds_dir;
+  Flight flight;
+  flight.spec = spec;
+  flight.world = trialWorld(run, world_index);
+  const TrialResult trial = runTrial(run, flight.world, world_index);
+  if (trial.path.empty()) throw std::runtime_error("a flight of " + spec.scenario + " has no path");
+  flight.path = trial.path;
+  const int64_t start = trial.path.front().utime;
+  for (const sim::PathSample& s : trial.path) {
+    if ((s.utime - start) % kReplanPeriodUs == 0) {
+      flight.frames.push_back({s.utime, Pose::fromYaw(s.position, s.yaw)});
+    }
+  }
+  return flight;
+}
+
+// ---- error statistics ----
+
+// A histogram of errors in [-kRange, kRange] m (clamped), exact count, sum and maximum.
+class ErrorHistogram {
+ public:
+  static constexpr double kRange = 2.0;
+  static constexpr double kBin = 0.0005;
+
+  ErrorHistogram() : bins_(static_cast<size_t>(2 * kRange / kBin) + 1, 0) {}
+
+  void add(double error, const std::function<std::string()>& where) {
+    ++count_;
+    sum_ += error;
+    const double clamped = std::clamp(error, -kRange, kRange);
+    ++bins_[static_cast<size_t>(std::floor((clamped + kRange) / kBin))];
+    if (count_ == 1 || error > max_) {
+      max_ = error;
+      worst_ = where();
+    }
+  }
+
+  void merge(const ErrorHistogram& other) {
+    if (other.count_ == 0) return;
+    if (count_ == 0 || other.max_ > max_) {
+      max_ = other.max_;
+      worst_ = other.worst_;
+    }
+    count_ += other.count_;
+    sum_ += other.sum_;
+    for (size_t i = 0; i < bins_.size(); ++i) bins_[i] += other.bins_[i];
+  }
+
+  ErrorSummary summary() const {
+    ErrorSummary s;
+    s.count = count_;
+    if (count_ == 0) return s;
+    s.mean = sum_ / static_cast<double>(count_);
+    s.p99 = quantile(0.99);
+    s.p999 = quantile(0.999);
+    s.max = max_;
+    s.worst = worst_;
+    return s;
+  }
+
+ private:
+  // The upper edge of the bin holding the q-quantile (never below the truth), capped by the max.
+  double quantile(double q) const {
+    const auto rank = static_cast<int64_t>(std::ceil(q * static_cast<double>(count_)));
+    int64_t seen = 0;
+    for (size_t i = 0; i < bins_.size(); ++i) {
+      seen += bins_[i];
+      if (seen >= rank) return std::min(max_, -kRange + static_cast<double>(i + 1) * kBin);
+    }
+    return max_;
+  }
+
+  std::vector<int64_t> bins_;
+  int64_t count_ = 0;
+  double sum_ = 0;
+  double max_ = 0;
+  std::string worst_;
+};
+
+struct Config {
+  double voxel_size;
+  double noise;
+  const MappingVariant* variant;
+};
+
+struct Measured {
+  ErrorHistogram voxels;
+  ErrorHistogram points;
+  int frames = 0;
+};
+
+std::string place(const Flight& flight, size_t frame, const Eigen::Vector3d& p, double esdf,
+                  double truth) {
+  char text[200];
+  std::snprintf(
+      text, sizeof(text), "%s d%g s%llu frame %zu (%.2f, %.2f, %.2f): esdf %.3f true %.3f",
+      flight.spec.scenario.c_str(), flight.spec.density,
+      static_cast<unsigned long long>(flight.world.seed), frame, p.x(), p.y(), p.z(), esdf, truth);
+  return text;
+}
+
+// Whether the TSDF observed all 8 voxels the ESDF interpolates between at p: the ESDF also calls
+// the unobserved voxels of the take-off sphere free (an assumption, not a measurement).
+bool observedAround(const TsdfLayer& tsdf, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d corner = p / tsdf.voxelSize() - Eigen::Vector3d::Constant(0.5);
+  const VoxelIndex base = corner.array().floor().cast<int>().matrix();
+  for (int i = 0; i < 8; ++i) {
+    const TsdfVoxel* t = tsdf.voxel(base + VoxelIndex(i & 1, (i >> 1) & 1, i >> 2));
+    if (t == nullptr || !(t->weight > 0)) return false;
+  }
+  return true;
+}
+
+// Maps one flight under one configuration and measures after every frame.
+Measured measure(const ClearanceOptions& options, const Flight& flight, const Config& config) {
+  mapper::MapperOptions mapper_options;
+  mapper_options.voxel_size = config.voxel_size;
+  config.variant->apply(mapper_options);
+  mapper::Mapper mapper(mapper_options);
+  sim::DepthCameraOptions camera;
+  camera.noise_stddev_at_1m = config.noise;
+  const sim::DepthRenderer renderer(flight.world, camera);
+  const sim::GroundTruth truth(flight.world);
+
+  Measured measured;
+  size_t next_pose = 0;
+  std::vector<mapper::MapRevisionUpdate> updates;
+  for (size_t k = 0; k < flight.frames.size(); ++k) {
+    const Flight::Frame& frame = flight.frames[k];
+    // The pose stream up to the frame, as the VIO bridge would deliver it.
+    for (; next_pose < flight.path.size() && flight.path[next_pose].utime <= frame.utime;
+         ++next_pose) {
+      const sim::PathSample& s = flight.path[next_pose];
+      mapper.addPose(s.utime, Pose::fromYaw(s.position, s.yaw));
+    }
+    mapper.addFrame(renderer.renderImage(frame.body, frame.utime, k));
+    updates.clear();
+    mapper.integrateReady(updates);
+    if (updates.empty()) continue;
+    ++measured.frames;
+
+    const TsdfLayer& tsdf = mapper.tsdf();
+    const EsdfLayer& esdf = mapper.esdf();
+    const Eigen::Vector3d& centre = frame.body.position;
+    const double r2 = options.horizon * options.horizon;
+    const double near = options.robot_radius + options.band;
+    const VoxelIndex lo = esdf.voxelIndex((centre.array() - options.horizon).matrix());
+    const VoxelIndex hi = esdf.voxelIndex((centre.array() + options.horizon).matrix());
+    for (int z = lo.z(); z <= hi.z(); ++z) {
+      for (int y = lo.y(); y <= hi.y(); ++y) {
+        for (int x = lo.x(); x <= hi.x(); ++x) {
+          const VoxelIndex v(x, y, z);
+          const Eigen::Vector3d c = esdf.voxelCenter(v);
+          if ((c - centre).squaredNorm() > r2) continue;
+          const EsdfVoxel* e = esdf.voxel(v);
+          const TsdfVoxel* t = tsdf.voxel(v);
+          if (e == nullptr || !e->observed || t == nullptr || !(t->weight > 0)) continue;
+          const double d = truth.distance(c);
+          if (!(d > 0 && d <= near)) continue;
+          measured.voxels.add(e->distance - d, [&] { return place(flight, k, c, e->distance, d); });
+        }
+      }
+    }
+    // The same points for every configuration: seeded by the world and the frame only.
+    std::mt19937_64 rng(mixSeed(flight.world.seed, k));
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    for (int i = 0; i < options.points_per_frame; ++i) {
+      Eigen::Vector3d offset;
+      do {
+        offset = Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
+      } while (offset.squaredNorm() > 1.0);
+      const Eigen::Vector3d p = centre + options.horizon * offset;
+      const EsdfSample s = sampleEsdf(esdf, p);
+      if (!s.known || !observedAround(tsdf, p)) continue;
+      const double d = truth.distance(p);
+      if (!(d > 0 && d <= near)) continue;
+      measured.points.add(s.distance - d, [&] { return place(flight, k, p, s.distance, d); });
+    }
+  }
+  return measured;
+}
+
+// Runs f(i) for i in [0, n) on `jobs` threads.
+void parallelFor(int n, int jobs, const std::function<void(int)>& f) {
+  std::atomic<int> next{0};
+  auto worker = [&] {
+    for (int i = next++; i < n; i = next++) f(i);
+  };
+  std::vector<std::thread> threads;
+  for (int j = 0; j < std::min(jobs, n); ++j) threads.emplace_back(worker);
+  for (std::thread& thread : threads) thread.join();
+}
+
+std::string csvText(const std::vector<ClearanceRow>& rows) {
+  std::string text =
+      "scenario,density,voxel_size,noise,variant,flights,frames,voxels,voxel_mean,voxel_p99,"
+      "voxel_p999,voxel_max,points,point_mean,point_p99,point_p999,point_max,worst_voxel,"
+      "worst_point\n";
+  for (const ClearanceRow& r : rows) {
+    char line[512];
+    std::snprintf(line, sizeof(line),
+                  "%s,%g,%g,%g,%s,%d,%d,%lld,%.4f,%.4f,%.4f,%.4f,%lld,%.4f,%.4f,%.4f,%.4f,",
+                  r.scenario.c_str(), r.density, r.voxel_size, r.noise, r.variant.c_str(),
+                  r.flights, r.frames, static_cast<long long>(r.voxels.count), r.voxels.mean,
+                  r.voxels.p99, r.voxels.p999, r.voxels.max, static_cast<long long>(r.points.count),
+                  r.points.mean, r.points.p99, r.points.p999, r.points.max);
+    text += line + ("\"" + r.voxels.worst + "\",\"" + r.points.worst + "\"\n");
+  }
+  return text;
+}
+
+void printTable(const std::vector<ClearanceRow>& rows) {
+  std::printf("%-9s %5s %5s %6s %-14s %6s | %9s %7s %7s %7s | %9s %7s %7s %7s\n", "scenario",
+              "dens", "voxel", "noise", "variant", "frames", "voxels", "p99", "p99.9", "max",
+              "points", "p99", "p99.9", "max");
+  for (const ClearanceRow& r : rows) {
+    std::printf("%-9s %5g %5g %6g %-14s %6d | %9lld %7.3f %7.3f %7.3f | %9lld %7.3f %7.3f %7.3f\n",
+                r.scenario.c_str(), r.density, r.voxel_size, r.noise, r.variant.c_str(), r.frames,
+                static_cast<long long>(r.voxels.count), r.voxels.p99, r.voxels.p999, r.voxels.max,
+                static_cast<long long>(r.points.count), r.points.p99, r.points.p999, r.points.max);
+  }
+  for (const ClearanceRow& r : rows) {
+    std::printf("worst point %s %g %g %s: %s\n", r.scenario.c_str(), r.voxel_size, r.noise,
+                r.variant.c_str(), r.points.worst.c_str());
+  }
+}
+
+}  // namespace
+
+Expected<ClearanceOptions> parseClearanceOptions(const std::vector<std::string>& args) {
+  ClearanceOptions options;
+  const auto given = applyFlags(args, setters(), options);
+  if (!given) return unexpected(given.error());
+  if (options.help) return options;
+  if (options.out_dir.empty()) return unexpected("no output folder given (--out DIR)");
+  for (const std::string& flight : options.flights) {
+    if (auto parsed = parseFlight(flight); !parsed) return unexpected(parsed.error());
+  }
+  for (const std::string& name : options.variants) {
+    if (findVariant(name) == nullptr) return unexpected("unknown mapping variant '" + name + "'");
+  }
+  for (const double v : options.voxel_sizes) {
+    if (!(v >= 0.02 && v <= 1.0)) return unexpected("voxel sizes must be in [0.02, 1] m");
+  }
+  if (!(options.horizon > 0)) return unexpected("--horizon must be positive");
+  return options;
+}
+
+std::vector<ClearanceRow> measureClearance(const ClearanceOptions& options) {
+  std::vector<FlightSpec> specs;
+  for (const std::string& text : options.flights) specs.push_back(*parseFlight(text));
+  std::vector<const MappingVariant*> variants;
+  for (const MappingVariant& v : mappingVariants()) {
+    if (options.variants.empty() || std::find(options.variants.begin(), options.variants.end(),
+                                              v.name) != options.variants.end()) {
+      variants.push_back(&v);
+    }
+  }
+  std::vector<Config> configs;
+  for (const double voxel_size : options.voxel_sizes) {
+    for (const double noise : options.noises) {
+      for (const MappingVariant* variant : variants)
+        configs.push_back({voxel_size, noise, variant});
+    }
+  }
+
+  const int worlds = options.worlds;
+  const int num_flights = static_cast<int>(specs.size()) * worlds;
+  std::vector<std::optional<Flight>> flights(static_cast<size_t>(num_flights));
+  std::mutex progress;
+  parallelFor(num_flights, options.jobs, [&](int i) {
+    flights[static_cast<size_t>(i)] =
+        fly(options, specs[static_cast<size_t>(i / worlds)], i % worlds);
+    const std::lock_guard lock(progress);
+    const Flight& f = *flights[static_cast<size_t>(i)];
+    std::fprintf(stderr, "flew %s d%g seed %llu: %zu frames\n", f.spec.scenario.c_str(),
+                 f.spec.density, static_cast<unsigned long long>(f.world.seed), f.frames.size());
+  });
+
+  const int num_tasks = num_flights * static_cast<int>(configs.size());
+  std::vector<Measured> measured(static_cast<size_t>(num_tasks));
+  parallelFor(num_tasks, options.jobs, [&](int i) {
+    const int flight = i / static_cast<int>(configs.size());
+    const Config& config = configs[static_cast<size_t>(i) % configs.size()];
+    measured[static_cast<size_t>(i)] =
+        measure(options, *flights[static_cast<size_t>(flight)], config);
+  });
+
+  std::vector<ClearanceRow> rows;
+  for (size_t s = 0; s < specs.size(); ++s) {
+    for (size_t c = 0; c < configs.size(); ++c) {
+      Measured total;
+      for (int w = 0; w < worlds; ++w) {
+        const Measured& m =
+            measured[(s * static_cast<size_t>(worlds) + static_cast<size_t>(w)) * configs.size() +
+                     c];
+        total.voxels.merge(m.voxels);
+        total.points.merge(m.points);
+        total.frames += m.frames;
+      }
+      ClearanceRow row;
+      row.scenario = specs[s].scenario;
+      row.density = specs[s].density;
+      row.voxel_size = configs[c].voxel_size;
+      row.noise = configs[c].noise;
+      row.variant = configs[c].variant->name;
+      row.flights = worlds;
+      row.frames = total.frames;
+      row.voxels = total.voxels.summary();
+      row.points = total.points.summary();
+      rows.push_back(row);
+    }
+  }
+  return rows;
+}
+
+int clearanceCommand(const std::vector<std::string>& args) {
+  auto options = parseClearanceOptions(args);
+  if (!options) {
+    std::fprintf(stderr, "thicket-bench clearance: %s\n(thicket-bench clearance --help)\n",
+                 options.error().c_str());
+    return 2;
+  }
+  if (options->help) {
+    std::fputs(usage().c_str(), stdout);
+    return 0;
+  }
+  try {
+    const auto started = std::chrono::steady_clock::now();
+    const std::vector<ClearanceRow> rows = measureClearance(*options);
+    std::filesystem::create_directories(options->out_dir);
+    writeTextFile(options->out_dir + "/clearance.csv", csvText(rows));
+    printTable(rows);
+    std::printf("wrote %s/clearance.csv in %.0f s\n", options->out_dir.c_str(),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "thicket-bench clearance: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace thicket::bench
