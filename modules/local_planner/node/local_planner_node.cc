@@ -41,6 +41,8 @@ int8_t statusState(CycleState state) {
       return planner_status_t::STATE_NO_MAP;
     case CycleState::kNoState:
       return planner_status_t::STATE_NO_STATE;
+    case CycleState::kStopping:
+      return planner_status_t::STATE_STOPPING;
   }
   return planner_status_t::STATE_HOLDING;
 }
@@ -74,7 +76,7 @@ LocalPlannerNode::LocalPlannerNode(lcm::LCM& lcm, const LocalPlannerNodeOptions&
       options_(options),
       now_ms_(now_ms ? std::move(now_ms) : [] { return 0.0; }),
       planner_(options.planner, now_ms_),
-      state_counts_(6, 0) {
+      state_counts_(kNumCycleStates, 0) {
   // A full snapshot arrives as many parts at once.
   subscribe<map_update_t>(
       "MAP_ESDF", [this](const map_update_t& msg, const MessageInfo&) { onMap(msg); }, 1000);

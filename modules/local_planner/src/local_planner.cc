@@ -7,6 +7,7 @@
 
 #include "thicket/common/random.h"
 #include "thicket/common/time.h"
+#include "thicket/local_planner/stop.h"
 
 namespace thicket::local_planner {
 
@@ -24,6 +25,8 @@ const char* cycleStateName(CycleState state) {
       return "no map";
     case CycleState::kNoState:
       return "no state";
+    case CycleState::kStopping:
+      return "stopping";
   }
   return "?";
 }
@@ -159,9 +162,38 @@ DistanceField LocalPlanner::fenced(const DistanceField& field) const {
   };
 }
 
-bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceField& map_field,
+double LocalPlanner::requiredClearance() const {
+  return options_.loco.robot_radius + options_.loco.clearance_margin;
+}
+
+void LocalPlanner::recheck(const DistanceField& field, CycleReport& report) {
+  const double from = toSeconds(report.utime - committed_->startUtime());
+  const ClearanceCheck check = checkClearance(*committed_, from, field, requiredClearance());
+  if (check.clear) return;
+  const Stop stop = planStop(report.utime, report.start, field, options_.loco);
+  commit(stop.trajectory, report);
+  report.blocked =
+      "the committed trajectory is blocked (" + check.reason + "); " +
+      (stop.certified ? format("stopping within %.2f m in certified free space", stop.distance)
+                      : format("no stop stays in certified free space: the hardest stop the "
+                               "limits allow, %.2f m",
+                               stop.distance));
+}
+
+void LocalPlanner::reportStop(CycleReport& report) {
+  if (report.blocked.empty()) return;
+  if (report.state == CycleState::kPlanned) {
+    report.reason = report.blocked + "; replanned";
+    return;
+  }
+  report.reason = report.blocked + "; " + report.reason;
+  if (report.is_final && report.state != CycleState::kGoalReached) {
+    report.state = CycleState::kStopping;
+  }
+}
+
+bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
                               CycleReport& report) {
-  const DistanceField field = fenced(map_field);
   const Eigen::Vector3d& target = goal.waypoints[waypoint];
   report.goal_id = goal.id;
   report.goal_from_explorer = goal.from_explorer;
@@ -213,6 +245,14 @@ bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceF
 
 CycleReport LocalPlanner::plan(int64_t utime, const DistanceField* field, int64_t map_utime,
                                int64_t map_revision, const std::optional<VehicleState>& estimate) {
+  CycleReport report = planCycle(utime, field, map_utime, map_revision, estimate);
+  reportStop(report);
+  return report;
+}
+
+CycleReport LocalPlanner::planCycle(int64_t utime, const DistanceField* map_field,
+                                    int64_t map_utime, int64_t map_revision,
+                                    const std::optional<VehicleState>& estimate) {
   CycleReport report;
   report.utime = utime;
   report.cycle = ++cycle_;
@@ -237,7 +277,7 @@ CycleReport LocalPlanner::plan(int64_t utime, const DistanceField* field, int64_
     report.start.position = estimate->position;
     report.start.velocity = estimate->velocity;
   }
-  if (field == nullptr) {
+  if (map_field == nullptr) {
     hold(report, CycleState::kNoMap, "no map yet", report.start.position);
     return report;
   }
@@ -245,6 +285,8 @@ CycleReport LocalPlanner::plan(int64_t utime, const DistanceField* field, int64_
     hold(report, CycleState::kNoMap, format("the map is %.2f s old", age), report.start.position);
     return report;
   }
+  const DistanceField field = fenced(*map_field);
+  if (committed_) recheck(field, report);
   if (!mission_) {
     hold(report, CycleState::kHolding, "no goal", report.start.position);
     return report;
@@ -254,7 +296,7 @@ CycleReport LocalPlanner::plan(int64_t utime, const DistanceField* field, int64_
   if (intermediate_) {
     if (advanceWaypoints(*intermediate_, intermediate_waypoint_, report.start.position)) {
       intermediate_.reset();
-    } else if (planToward(*intermediate_, intermediate_waypoint_, *field, report)) {
+    } else if (planToward(*intermediate_, intermediate_waypoint_, field, report)) {
       return report;
     } else {
       dropped = "intermediate goal " + std::to_string(intermediate_->id) + " dropped (" +
@@ -270,7 +312,7 @@ CycleReport LocalPlanner::plan(int64_t utime, const DistanceField* field, int64_
     report.reason = "goal reached";
     return report;
   }
-  if (planToward(*mission_, mission_waypoint_, *field, report)) return report;
+  if (planToward(*mission_, mission_waypoint_, field, report)) return report;
   hold(report, CycleState::kStuck, dropped + report.reason, report.start.position);
   if (options_.use_explorer) {
     report.is_final = false;
@@ -282,6 +324,13 @@ CycleReport LocalPlanner::plan(int64_t utime, const DistanceField* field, int64_
 CycleReport LocalPlanner::answer(const std::optional<Goal>& goal, const std::string& reason,
                                  const DistanceField* field) {
   if (!waiting_) throw std::logic_error("LocalPlanner::answer: no cycle is waiting");
+  CycleReport report = answerCycle(goal, reason, field);
+  reportStop(report);
+  return report;
+}
+
+CycleReport LocalPlanner::answerCycle(const std::optional<Goal>& goal, const std::string& reason,
+                                      const DistanceField* map_field) {
   CycleReport report = *waiting_;
   waiting_.reset();
   report.is_final = true;
@@ -295,7 +344,7 @@ CycleReport LocalPlanner::answer(const std::optional<Goal>& goal, const std::str
   if (!mission_) return give_up("the mission was cancelled");
   if (!goal) return give_up("the explorer has no intermediate goal: " + reason);
   if (auto refused = validate(*goal)) return give_up("intermediate goal refused: " + *refused);
-  if (field == nullptr) return give_up("no map");
+  if (map_field == nullptr) return give_up("no map");
   intermediate_ = *goal;
   intermediate_->from_explorer = true;
   intermediate_waypoint_ = 0;
@@ -303,7 +352,7 @@ CycleReport LocalPlanner::answer(const std::optional<Goal>& goal, const std::str
     intermediate_.reset();
     return give_up("the intermediate goal is where the vehicle already is");
   }
-  if (planToward(*intermediate_, intermediate_waypoint_, *field, report)) return report;
+  if (planToward(*intermediate_, intermediate_waypoint_, fenced(*map_field), report)) return report;
   intermediate_.reset();
   return give_up("the intermediate goal is infeasible too: " + report.reason);
 }

@@ -17,6 +17,39 @@ DistanceField esdfField(const EsdfLayer& esdf) {
   return [&esdf](const Eigen::Vector3d& p) { return sampleEsdf(esdf, p); };
 }
 
+ClearanceCheck checkClearance(const PolynomialTrajectory& trajectory, double from,
+                              const DistanceField& field, double required) {
+  ClearanceCheck result;
+  result.min_distance = std::numeric_limits<double>::infinity();
+  const double duration = trajectory.duration();
+  // The samples of the acceptance test from `from` on: the same times, so that a trajectory checked
+  // again on the same map passes again.
+  const int first =
+      static_cast<int>(std::ceil(std::clamp(from, 0.0, duration) / kClearanceCheckDt));
+  for (int k = first;; ++k) {
+    const double t = std::min(k * kClearanceCheckDt, duration);
+    const Eigen::Vector3d p = trajectory.evaluate(t);
+    const EsdfSample e = field(p);
+    const double d = e.known ? e.distance : 0.0;
+    result.min_distance = std::min(result.min_distance, d);
+    if (result.reason.empty() && (!e.known || d < required)) {
+      char text[160];
+      if (e.known) {
+        std::snprintf(text, sizeof(text),
+                      "sample at t=%.2f s, (%.2f, %.2f, %.2f): distance %.3f m < %.3f m", t, p.x(),
+                      p.y(), p.z(), d, required);
+      } else {
+        std::snprintf(text, sizeof(text), "sample at t=%.2f s, (%.2f, %.2f, %.2f) is unknown", t,
+                      p.x(), p.y(), p.z());
+      }
+      result.reason = text;
+    }
+    if (t >= duration) break;
+  }
+  result.clear = result.reason.empty();
+  return result;
+}
+
 Potential collisionPotential(double distance, double radius, double epsilon) {
   const double d = distance - radius;
   if (d < 0) return {-d + 0.5 * epsilon, -1.0};
@@ -134,37 +167,16 @@ LocoProblem::Check LocoProblem::check(const Derivatives& free) const {
     result.reason = "not a valid trajectory: " + trajectory.error();
     return result;
   }
-  // Clearance is checked far more finely than the cost integral samples (Δt): between samples
-  // 0.2 m apart the distance to an obstacle beside the path dips by up to ~1 cm, which the
-  // benchmark saw as executed paths 1 mm inside the robot radius.
-  constexpr double kClearanceDt = 0.02;
-  const double required = options_.robot_radius + options_.clearance_margin;
-  const double duration = trajectory->duration();
-  char text[160] = "";
-  for (int k = 0;; ++k) {
-    const double t = std::min(k * kClearanceDt, duration);
-    const Eigen::Vector3d p = trajectory->evaluate(t);
-    const EsdfSample e = field_(p);
-    const double d = e.known ? e.distance : 0.0;
-    if (d < result.min_distance) result.min_distance = d;
-    if (text[0] == '\0' && (!e.known || d < required)) {
-      if (e.known) {
-        std::snprintf(text, sizeof(text),
-                      "sample at t=%.2f s, (%.2f, %.2f, %.2f): distance %.3f m < %.3f m", t, p.x(),
-                      p.y(), p.z(), d, required);
-      } else {
-        std::snprintf(text, sizeof(text), "sample at t=%.2f s, (%.2f, %.2f, %.2f) is unknown", t,
-                      p.x(), p.y(), p.z());
-      }
-    }
-    if (t >= duration) break;
-  }
-  result.collision_free = text[0] == '\0';
+  const ClearanceCheck clearance =
+      checkClearance(*trajectory, 0, field_, options_.robot_radius + options_.clearance_margin);
+  result.min_distance = clearance.min_distance;
+  result.collision_free = clearance.clear;
   constexpr double kLimitDt = 0.01;
   result.max_speed = trajectory->maxSpeed(kLimitDt);
   result.max_acceleration = trajectory->maxAcceleration(kLimitDt);
+  char text[160];
   if (!result.collision_free) {
-    result.reason = text;
+    result.reason = clearance.reason;
   } else if (result.max_speed > options_.v_max + 1e-6) {
     std::snprintf(text, sizeof(text), "speed %.3f m/s above v_max %.2f m/s", result.max_speed,
                   options_.v_max);

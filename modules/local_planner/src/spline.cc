@@ -175,6 +175,13 @@ Derivatives JerkSpline::minimumJerkFree(const Derivatives& fixed,
   return r_ss.ldlt().solve(rhs);
 }
 
+Derivatives JerkSpline::minimumJerkStop(const Derivatives& fixed) const {
+  if (!free_end_) throw std::logic_error("JerkSpline::minimumJerkStop: the end position is fixed");
+  checkSizes(fixed.rows(), num_free_);
+  // Stationary in every free row: R_PP d_P = -R_FP' d_F.
+  return r_pp_.ldlt().solve(-r_fp_.transpose() * fixed);
+}
+
 std::vector<PolynomialSegment> JerkSpline::segments(const Derivatives& fixed,
                                                     const Derivatives& free) const {
   checkSizes(fixed.rows(), free.rows());

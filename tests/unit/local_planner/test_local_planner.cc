@@ -124,7 +124,8 @@ class Pilot {
   void check(const CycleReport& report, const DistanceField& field) const {
     if (report.state == CycleState::kPlanned) {
       EXPECT_TRUE(report.trajectory) << "cycle " << report.cycle;
-      EXPECT_TRUE(report.reason.empty()) << report.reason;
+      // A planned cycle explains itself only when it replaced a blocked trajectory.
+      EXPECT_EQ(report.reason.empty(), report.blocked.empty()) << report.reason;
     }
     if (!report.trajectory) return;
     SCOPED_TRACE("cycle " + std::to_string(report.cycle));
@@ -712,6 +713,10 @@ TEST(LocalPlanner, AnInfeasibleIntermediateGoalIsDropped) {
       pilot.planner.plan(t, &side_wall, t, 100, stateAt(t, reference.position, reference.velocity));
   pilot.check(dropped, side_wall);
   EXPECT_EQ(dropped.state, CycleState::kPlanned) << dropped.reason;
+  // The trajectory toward the intermediate goal crossed the new wall: the re-check refused it
+  // before the cycle replanned.
+  EXPECT_TRUE(contains(dropped.blocked, "the committed trajectory is blocked")) << dropped.blocked;
+  EXPECT_TRUE(contains(dropped.reason, "replanned")) << dropped.reason;
   EXPECT_EQ(dropped.goal_id, 1);
   EXPECT_EQ(dropped.goal, kMission);
   EXPECT_FALSE(dropped.goal_from_explorer);

@@ -13,6 +13,11 @@
 // a fresh one or a state estimate the planner holds: it commits a hover trajectory if nothing is
 // committed yet, and says why.
 //
+// Re-check. Every cycle on a fresh map first re-checks the rest of the committed trajectory with
+// the acceptance test. When it fails (the map now sees an obstacle on it, or knows less), a
+// stopping trajectory (stop.h) is committed at once, before anything else is tried; a plan found
+// later in the cycle replaces it. A cycle that ends on the stop reports kStopping.
+//
 // No LCM and no clock inside: time comes from the caller (message utimes); wall-clock time is
 // only measured (now_ms) for the reported solve time.
 #pragma once
@@ -48,7 +53,8 @@ struct VehicleState {
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
 };
 
-enum class CycleState { kPlanned, kStuck, kGoalReached, kHolding, kNoMap, kNoState };
+enum class CycleState { kPlanned, kStuck, kGoalReached, kHolding, kNoMap, kNoState, kStopping };
+constexpr int kNumCycleStates = 7;
 const char* cycleStateName(CycleState state);
 
 /// What one cycle (or the answer to a stuck cycle) did.
@@ -65,8 +71,11 @@ struct CycleReport {
   Eigen::Vector3d goal = Eigen::Vector3d::Zero();
   Eigen::Vector3d horizon_goal = Eigen::Vector3d::Zero();
   TrajectoryState start;  ///< the reference the cycle planned from
-  LocoResult loco;        ///< the last optimization of the cycle (empty if none ran)
-  double solve_ms = 0;    ///< wall-clock time of goal finding and optimization (measured)
+  /// Why the rest of the committed trajectory failed the re-check and which stop replaced it;
+  /// empty when it passed (or nothing was committed).
+  std::string blocked;
+  LocoResult loco;      ///< the last optimization of the cycle (empty if none ran)
+  double solve_ms = 0;  ///< wall-clock time of goal finding and optimization (measured)
   /// A trajectory committed by this cycle, to publish; absent when the committed one stands.
   std::optional<PolynomialTrajectory> trajectory;
 };
@@ -141,9 +150,22 @@ class LocalPlanner {
   // the acceptance needs, so the collision potential keeps trajectories inside and the clearance
   // check refuses any sample outside (goal finding too). Unknown space stays unknown.
   DistanceField fenced(const DistanceField& field) const;
-  // Plans toward the current waypoint of the tracked goal; fills the report, commits on success.
+  // The clearance acceptance asks for: robot radius + clearance margin.
+  double requiredClearance() const;
+  // Re-checks the rest of the committed trajectory from the report's time on the (fenced) field;
+  // when it fails, commits a stop from the report's start and says why in report.blocked.
+  void recheck(const DistanceField& field, CycleReport& report);
+  // The state and reason of a cycle that ends on a stop committed by recheck().
+  static void reportStop(CycleReport& report);
+  // Plans toward the current waypoint of the tracked goal on the (fenced) field; fills the report,
+  // commits on success.
   bool planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
                   CycleReport& report);
+  // plan() and answer() before reportStop().
+  CycleReport planCycle(int64_t utime, const DistanceField* field, int64_t map_utime,
+                        int64_t map_revision, const std::optional<VehicleState>& estimate);
+  CycleReport answerCycle(const std::optional<Goal>& goal, const std::string& reason,
+                          const DistanceField* field);
   // Reports a cycle that commits no plan; hovers at `position` when nothing is committed yet.
   void hold(CycleReport& report, CycleState state, const std::string& reason,
             const std::optional<Eigen::Vector3d>& position);

@@ -36,6 +36,22 @@ using DistanceField = std::function<EsdfSample(const Eigen::Vector3d&)>;
 /// sampleEsdf on `esdf`, which must outlive the returned field.
 DistanceField esdfField(const EsdfLayer& esdf);
 
+/// The acceptance test samples clearance every this much [s]: far finer than the cost integral's
+/// Δt, since between samples 0.2 m apart the distance to an obstacle beside the path dips by up to
+/// ~1 cm.
+constexpr double kClearanceCheckDt = 0.02;
+
+/// The clearance part of the acceptance test on `trajectory`: its samples every kClearanceCheckDt
+/// from its start, and its end, that are not before `from` seconds after its start (after its end
+/// the vehicle rests there, so `from` beyond the end checks the end point alone).
+struct ClearanceCheck {
+  bool clear = false;       ///< every sample known with distance >= the required clearance
+  double min_distance = 0;  ///< over the samples, 0 where unknown [m]
+  std::string reason;       ///< the first sample that fails, in words; empty when clear
+};
+ClearanceCheck checkClearance(const PolynomialTrajectory& trajectory, double from,
+                              const DistanceField& field, double required);
+
 /// CHOMP's collision potential of distance d (DESIGN §1) and its derivative dc/dd. With
 /// d' = d - radius: -d' + ε/2 inside the radius, (d' - ε)² / (2ε) within ε of it, 0 beyond.
 /// Continuous with a continuous derivative. Loco passes robot radius + clearance margin.

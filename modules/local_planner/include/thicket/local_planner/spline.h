@@ -83,6 +83,11 @@ class JerkSpline {
   /// shrink the move to nothing), so pass the goal there.
   Derivatives minimumJerkFree(const Derivatives& fixed, const Eigen::Vector3d& initial_end) const;
 
+  /// The free derivatives that minimise the jerk cost alone with the end position free too (free
+  /// end only; throws std::logic_error otherwise): the smoothest way for a moving start to come to
+  /// rest within the spline's duration, wherever that ends.
+  Derivatives minimumJerkStop(const Derivatives& fixed) const;
+
   /// The segments of the spline, to build a PolynomialTrajectory from.
   std::vector<PolynomialSegment> segments(const Derivatives& fixed, const Derivatives& free) const;
 
