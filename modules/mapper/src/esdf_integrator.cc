@@ -731,7 +731,11 @@ class EsdfIntegrator::Impl {
     float value = max_;
     if (r.raise & kReevaluate) {
       value = std::min(max_, std::max(0.0f, source + edge_[d]));
-      if (value == n->value[l]) return;  // and so is its subtree
+      // Not longer: the same (and so is the subtree), or shorter, because a changed site's offer
+      // lowered r after its parent had queued it for raising. r is in the queue then, and the
+      // lower wavefront shortens n and passes that on to all of n's neighbours; shortening n
+      // here, outside the queue, would pass it on to n's children only.
+      if (value <= n->value[l]) return;
     }
     touch(n, l);
     n->value[l] = value;

@@ -14,7 +14,10 @@
 
 #include <gtest/gtest.h>
 
+#include "forest_flight.h"
 #include "thicket/common/params.h"
+#include "thicket/mapper/tsdf_integrator.h"
+#include "thicket/sim/render.h"
 
 namespace {
 
@@ -93,6 +96,8 @@ void observe(TsdfLayer& tsdf, const World& world, const Box& box, double truncat
            << "block sets differ: " << a.numBlocks() << " vs " << b.numBlocks() << " blocks";
   }
   int64_t mismatches = 0;
+  int64_t farther = 0;  // larger magnitude in a, among those that differ only in distance
+  double largest = 0;
   std::string first;
   for (const BlockIndex& index : blocks) {
     const auto& va = a.block(index)->voxels;
@@ -101,6 +106,10 @@ void observe(TsdfLayer& tsdf, const World& world, const Box& box, double truncat
       if (va[i].observed == vb[i].observed && va[i].fixed == vb[i].fixed &&
           std::abs(va[i].distance - vb[i].distance) <= tolerance) {
         continue;
+      }
+      if (va[i].observed == vb[i].observed && va[i].fixed == vb[i].fixed) {
+        farther += std::abs(va[i].distance) > std::abs(vb[i].distance);
+        largest = std::max(largest, static_cast<double>(std::abs(va[i].distance - vb[i].distance)));
       }
       if (mismatches++ == 0) {
         const VoxelIndex v = thicket::voxelOfBlock(index, i);
@@ -113,7 +122,9 @@ void observe(TsdfLayer& tsdf, const World& world, const Box& box, double truncat
     }
   }
   if (mismatches == 0) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << mismatches << " voxels differ, first " << first;
+  return ::testing::AssertionFailure() << mismatches << " voxels differ (" << farther
+                                       << " farther from the surface in the first layer, largest "
+                                       << "difference " << largest << " m), first " << first;
 }
 
 // A byte copy of a layer, to see exactly which blocks a call changed.
@@ -330,12 +341,13 @@ Snapshot runRandomSequence(uint64_t seed, int steps, bool check) {
           }
         });
         break;
-      case 5:  // re-integration noise near the vehicle: every site moves a little
+      case 5:  // re-integration near the vehicle: every voxel moves by up to half a voxel, so
+               // that one call both raises and lowers neighbouring sites, as a depth frame does
         forEachVoxel(tsdf,
                      Box{(position.array() - 2.0).matrix(), (position.array() + 2.0).matrix()},
                      [&](const VoxelIndex& v) {
                        if (TsdfVoxel* voxel = tsdf.voxel(v)) {
-                         voxel->distance += static_cast<float>(uniform(-0.03, 0.03));
+                         voxel->distance += static_cast<float>(uniform(-0.5 * vs, 0.5 * vs));
                          changed.push_back(thicket::blockOfVoxel(v));
                        }
                      });
@@ -666,6 +678,44 @@ TEST(EsdfIntegrator, FrameTimesWithExactMeasurements) {
 }
 TEST(EsdfIntegrator, FrameTimesWithNoisyMeasurements) {
   flyThroughForest(0.05, 7, "noisy, +-5 cm");
+}
+
+// ---------------------------------------------------------------------------------------------
+
+// The mapping benchmark's flight (tools/bench/bench_mapper.cc): 80 depth frames of forest50 at
+// density 0.2, seed 1, every 0.25 m, integrated into the TSDF and the ESDF as the mapper does,
+// the occupied sphere following the vehicle. update() must equal recompute() after every
+// `check_every`-th frame and the last.
+void flyBenchmarkFlight(double voxel_size, size_t check_every) {
+  const std::vector<thicket::Pose> poses = thicket::bench::flightPoses(0.25, 80);
+  const thicket::sim::DepthRenderer renderer(thicket::bench::forest(),
+                                             thicket::sim::DepthCameraOptions{});
+  const thicket::mapper::TsdfIntegrator tsdf_integrator{thicket::mapper::TsdfIntegratorOptions{}};
+  const EsdfIntegratorOptions options;
+  EsdfIntegrator integrator(options);
+  integrator.setInitialPosition(poses.front().position);
+  EsdfIntegrator reference(options);
+  reference.setInitialPosition(poses.front().position);
+  TsdfLayer tsdf(voxel_size);
+  EsdfLayer esdf(voxel_size);
+  int64_t utime = 0;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    const thicket::DepthImage image = renderer.renderImage(poses[i], utime += 250'000);
+    const auto changed = tsdf_integrator.integrate(image, poses[i] * renderer.cameraInBody(), tsdf);
+    integrator.update(tsdf, changed.changed_blocks, poses[i].position, esdf);
+    if ((i + 1) % check_every != 0 && i + 1 != poses.size()) continue;
+    EsdfLayer expected(voxel_size);
+    reference.recompute(tsdf, poses[i].position, expected);
+    EXPECT_TRUE(sameEsdf(esdf, expected, 1e-5)) << "frame " << i;
+  }
+}
+
+TEST(EsdfIntegrator, IncrementalEqualsRecomputeOnBenchmarkFlightAt20cm) {
+  flyBenchmarkFlight(0.2, 1);
+}
+// Every 20th frame, to keep the test short: checking all 80 takes about four times as long.
+TEST(EsdfIntegrator, IncrementalEqualsRecomputeOnBenchmarkFlightAt10cm) {
+  flyBenchmarkFlight(0.1, 20);
 }
 
 }  // namespace
