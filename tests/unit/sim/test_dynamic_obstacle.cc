@@ -240,7 +240,7 @@ TEST(SimDynamicObstacle, TheGroundTruthAndTheCamerasSeeItFromItsFirstFrameOnly) 
   trial.commit(mission);
   trial.start();
   trial.step();
-  // Frame 1, before: where it will stand (as the previous test checked) is free.
+  // Frame 1, before: where it is going to stand is free.
   const std::optional<Eigen::Vector2d> axis =
       dynamicObstacleAxis(*PolynomialTrajectory::fromLcm(mission), 2'000'000,
                           drawDynamicObstacle(options.dynamic_obstacle, 7), 0.01);
