@@ -73,6 +73,7 @@ void collect(const LogEvent& event, MissionLog& log) {
   const std::string& channel = event.channel;
   if (channel == "SIM_WORLD") {
     sim_world_t msg;
+    // The last one wins: the simulator publishes the world again when a dynamic obstacle appears.
     if (decodeInto(event, msg, log)) log.world = std::move(msg);
   } else if (channel == "SIM_TRUTH" || channel == "STATE_ESTIMATE") {
     odometry_t msg;

@@ -1,6 +1,7 @@
 // `thicket-log plot`: a top-down picture of a simulated mission from its log — the ground-truth
-// world (SIM_WORLD), the map the vehicle built (MAP_ESDF or MAP_TSDF), the flown path
-// (SIM_TRUTH), start, goal, the explorer's intermediate goals and any collisions (SIM_EVENT).
+// world (the last SIM_WORLD, which includes a dynamic obstacle once one appeared), the map the
+// vehicle built (MAP_ESDF or MAP_TSDF), the flown path (SIM_TRUTH), start, goal, the explorer's
+// intermediate goals and any collisions (SIM_EVENT).
 //
 // The map is the layer's last state: every update of the newest map (map_id) applied in revision
 // order, a full snapshot replacing what came before. It is drawn as a max-projection of a

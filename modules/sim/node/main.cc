@@ -18,6 +18,7 @@
 #include "sim_node.h"
 #include "thicket/common/loop.h"
 #include "thicket/common/node_main.h"
+#include "thicket/common/time.h"
 
 namespace {
 
@@ -225,6 +226,15 @@ int runCommand(int argc, char** argv) {
     std::printf("thicket-sim: %s after %d cycles, path %.2f m, min clearance %.3f m\n",
                 node.finished() ? node.endReason().c_str() : "stopped", vehicle.cycle(),
                 vehicle.pathLength(), vehicle.minClearance());
+    if (options.dynamic_obstacle.enabled) {
+      if (const auto& obstacle = node.dynamicObstacle()) {
+        std::printf("thicket-sim: the dynamic obstacle appeared at %.2f s, min clearance %.3f m\n",
+                    thicket::toSeconds(obstacle->utime - vehicle.path().front().utime),
+                    obstacle->min_clearance);
+      } else {
+        std::printf("thicket-sim: the dynamic obstacle never appeared\n");
+      }
+    }
     return vehicle.outcome() == thicket::sim::Outcome::kGoalReached ? 0 : 1;
   });
 }

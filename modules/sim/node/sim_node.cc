@@ -1,7 +1,9 @@
 #include "sim_node.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 #include <thicket/goal_t.hpp>
 #include <thicket/odometry_t.hpp>
@@ -30,6 +32,8 @@ void SimOptions::declare(Params& p) {
   p.group("depth_camera", depth_camera, "the depth camera (sensor: depth)");
   p.group("stereo_camera", stereo_camera, "the stereo camera (sensor: stereo)");
   p.group("odometry", odometry, "VIO-like drift and noise on VIO_ODOMETRY (off by default)");
+  p.group("dynamic_obstacle", dynamic_obstacle,
+          "a cylinder that appears in the committed path during the trial (off by default)");
 }
 
 namespace {
@@ -58,11 +62,15 @@ SimNode::SimNode(lcm::LCM& lcm, const SimOptions& options, World world)
       truth_(world_),
       vehicle_(truth_, options.vehicle),
       odometry_(options.odometry) {
-  if (options_.sensor == "stereo") {
-    stereo_ = std::make_unique<StereoRenderer>(world_, options_.stereo_camera);
-  } else {
-    depth_ = std::make_unique<DepthRenderer>(world_, options_.depth_camera);
+  if (options_.dynamic_obstacle.enabled) {
+    if (const std::string error =
+            dynamicObstacleError(options_.dynamic_obstacle, world_.robot_radius);
+        !error.empty()) {
+      throw std::invalid_argument("dynamic_obstacle: " + error);
+    }
+    dynamic_draw_ = drawDynamicObstacle(options_.dynamic_obstacle, world_.seed);
   }
+  buildCamera();
   last_odometry_ = vehicle_.state();
   subscribe<polynomial_trajectory_t>(
       "PLANNER_TRAJECTORY",
@@ -72,7 +80,38 @@ SimNode::SimNode(lcm::LCM& lcm, const SimOptions& options, World world)
       [this](const planner_status_t& msg, const MessageInfo&) { onPlannerStatus(msg); });
 }
 
+void SimNode::buildCamera() {
+  if (options_.sensor == "stereo") {
+    stereo_ = std::make_unique<StereoRenderer>(world_, options_.stereo_camera);
+  } else {
+    depth_ = std::make_unique<DepthRenderer>(world_, options_.depth_camera);
+  }
+}
+
 void SimNode::start() {
+  publishWorld();
+  // The simulated operator: the world's goal is the mission.
+  goal_t goal{};
+  goal.utime = vehicle_.utime();
+  goal.goal_id = 1;
+  goal.source = goal_t::SOURCE_OPERATOR;
+  goal.cycle = -1;
+  goal.status = goal_t::STATUS_OK;
+  goal.yaw_policy = goal_t::YAW_ALONG_VELOCITY;
+  goal.waypoints = {{world_.goal.x(), world_.goal.y(), world_.goal.z()}};
+  goal.yaws = {0.0};
+  goal.num_waypoints = 1;
+  publish("MISSION_GOAL", goal);
+  publishEvent(sim_event_t::TYPE_TRIAL_START,
+               "scenario " + world_.scenario + ", density " + std::to_string(world_.density) +
+                   ", seed " + std::to_string(world_.seed) + ", " +
+                   std::to_string(world_.cylinders.size()) + " cylinders");
+  publishOdometry(vehicle_.state());
+  updateDynamicObstacle();
+  publishFrame();
+}
+
+void SimNode::publishWorld() {
   sim_world_t msg{};
   msg.utime = vehicle_.utime();
   msg.scenario = world_.scenario;
@@ -93,24 +132,41 @@ void SimNode::start() {
   }
   msg.num_cylinders = static_cast<int32_t>(world_.cylinders.size());
   publish("SIM_WORLD", msg);
-  // The simulated operator: the world's goal is the mission.
-  goal_t goal{};
-  goal.utime = vehicle_.utime();
-  goal.goal_id = 1;
-  goal.source = goal_t::SOURCE_OPERATOR;
-  goal.cycle = -1;
-  goal.status = goal_t::STATUS_OK;
-  goal.yaw_policy = goal_t::YAW_ALONG_VELOCITY;
-  goal.waypoints = {{world_.goal.x(), world_.goal.y(), world_.goal.z()}};
-  goal.yaws = {0.0};
-  goal.num_waypoints = 1;
-  publish("MISSION_GOAL", goal);
-  publishEvent(sim_event_t::TYPE_TRIAL_START,
-               "scenario " + world_.scenario + ", density " + std::to_string(world_.density) +
-                   ", seed " + std::to_string(world_.seed) + ", " +
-                   std::to_string(world_.cylinders.size()) + " cylinders");
-  publishOdometry(vehicle_.state());
-  publishFrame();
+}
+
+void SimNode::updateDynamicObstacle() {
+  const DynamicObstacleOptions& o = options_.dynamic_obstacle;
+  if (!o.enabled || dynamic_obstacle_) return;
+  const PathSample& state = vehicle_.state();
+  const int64_t since_start = state.utime - vehicle_.path().front().utime;
+  if (toSeconds(since_start) < o.appear_time) return;
+  // Postponed to a later frame while there is no committed path to block, less of it is left
+  // than the drawn distance, or it winds back so that the obstacle would stand on the vehicle.
+  const PolynomialTrajectory* trajectory = vehicle_.trajectory();
+  if (!trajectory) return;
+  const std::optional<Eigen::Vector2d> axis =
+      dynamicObstacleAxis(*trajectory, state.utime, dynamic_draw_, options_.vehicle.sample_period);
+  if (!axis) return;
+  const Cylinder cylinder{axis->x(), axis->y(), o.radius,
+                          o.height > 0 ? o.height : world_.bounds_max.z()};
+  const double clearance = cylinderDistance(cylinder, state.position);
+  if (!(clearance > world_.robot_radius)) return;
+
+  world_.cylinders.push_back(cylinder);
+  // The vehicle holds a reference to truth_: assigning keeps it valid and shows it the obstacle.
+  truth_ = GroundTruth(world_);
+  buildCamera();
+  dynamic_obstacle_ = AppearedObstacle{cylinder, state.utime, frame_, clearance};
+  publishWorld();
+  char text[320];
+  std::snprintf(text, sizeof(text),
+                "dynamic obstacle appeared at frame %lld (t = %.2f s): axis (%.3f, %.3f), radius "
+                "%.3f m, height %.3f m, %.3f m ahead along the committed path, %.3f m lateral "
+                "offset, clearance %.3f m",
+                static_cast<long long>(frame_), toSeconds(since_start), cylinder.x, cylinder.y,
+                cylinder.radius, cylinder.height, dynamic_draw_.distance_ahead,
+                dynamic_draw_.lateral_offset, clearance);
+  publishEvent(sim_event_t::TYPE_INFO, text);
 }
 
 void SimNode::publishOdometry(const PathSample& sample) {
@@ -184,6 +240,13 @@ void SimNode::advance() {
   if (finished_) return;
   waiting_for_.reset();
   const StepReport report = vehicle_.step();
+  if (dynamic_obstacle_) {
+    for (const PathSample& sample : report.samples) {
+      dynamic_obstacle_->min_clearance =
+          std::min(dynamic_obstacle_->min_clearance,
+                   cylinderDistance(dynamic_obstacle_->cylinder, sample.position));
+    }
+  }
   const int64_t odometry_period = secondsToUtime(1.0 / options_.odometry_rate);
   for (const PathSample& sample : report.samples) {
     if (sample.utime - last_odometry_.utime >= odometry_period ||
@@ -200,6 +263,7 @@ void SimNode::advance() {
   }
   switch (report.outcome) {
     case Outcome::kRunning:
+      updateDynamicObstacle();
       publishFrame();
       break;
     case Outcome::kGoalReached:

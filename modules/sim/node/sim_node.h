@@ -12,6 +12,7 @@
 
 #include "thicket/common/node.h"
 #include "thicket/common/params.h"
+#include "thicket/sim/dynamic_obstacle.h"
 #include "thicket/sim/ground_truth.h"
 #include "thicket/sim/odometry.h"
 #include "thicket/sim/render.h"
@@ -34,12 +35,15 @@ struct SimOptions {
   DepthCameraOptions depth_camera;
   StereoCameraOptions stereo_camera;
   OdometryNoiseOptions odometry;
+  DynamicObstacleOptions dynamic_obstacle;
 
   void declare(Params& p);
 };
 
 class SimNode : public Node {
  public:
+  /// Throws std::invalid_argument for dynamic obstacle options that do not suit the world (see
+  /// dynamicObstacleError), and for camera or vehicle options that make no camera or vehicle.
   SimNode(lcm::LCM& lcm, const SimOptions& options, World world);
 
   /// Publishes the world, the mission goal (the world's goal, on MISSION_GOAL as the operator),
@@ -55,12 +59,27 @@ class SimNode : public Node {
   /// How the mission ended ("goal reached", "aborted: ..."), empty while it runs.
   const std::string& endReason() const { return end_reason_; }
   const Vehicle& vehicle() const { return vehicle_; }
+  /// The world as it is now: with the dynamic obstacle (the last cylinder) once it appeared.
   const World& world() const { return world_; }
+  const GroundTruth& groundTruth() const { return truth_; }
+  /// The dynamic obstacle and the vehicle's smallest clearance to it so far, once it appeared.
+  /// It appears (options.dynamic_obstacle) at the first frame at or after appear_time at which
+  /// the committed trajectory has at least the drawn distance of path left and the vehicle is
+  /// clear of where it would stand; until then each frame postpones it to the next (without a
+  /// trajectory, hovering, or stopping short, it may never appear). When it appears, the world,
+  /// ground truth and cameras include it, SIM_WORLD is published again and a TYPE_INFO SIM_EVENT
+  /// says where.
+  const std::optional<AppearedObstacle>& dynamicObstacle() const { return dynamic_obstacle_; }
   /// The frame the simulator waits on in lockstep (its utime), if any.
   std::optional<int64_t> waitingFor() const { return waiting_for_; }
 
  private:
+  // (Re)builds the renderer of options_.sensor for world_.
+  void buildCamera();
+  void publishWorld();
   void publishFrame();
+  // Adds the dynamic obstacle when it is due and can be placed (see dynamicObstacle()).
+  void updateDynamicObstacle();
   void publishOdometry(const PathSample& sample);
   void publishEvent(int8_t type, const std::string& message, int8_t outcome = 0);
   void finish(const std::string& reason, int8_t outcome);
@@ -74,6 +93,8 @@ class SimNode : public Node {
   OdometrySimulator odometry_;
   std::unique_ptr<DepthRenderer> depth_;
   std::unique_ptr<StereoRenderer> stereo_;
+  DynamicObstacleDraw dynamic_draw_;
+  std::optional<AppearedObstacle> dynamic_obstacle_;
   PathSample last_odometry_;
   int64_t odometry_sequence_ = 0;
   int64_t frame_ = 0;

@@ -178,6 +178,13 @@ double GroundTruth::distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient
   return best;
 }
 
+double cylinderDistance(const Cylinder& cylinder, const Eigen::Vector3d& p) {
+  // As GroundTruth::distance computes it, to the bit.
+  const double dx = p.x() - cylinder.x;
+  const double dy = p.y() - cylinder.y;
+  return corner(std::sqrt(dx * dx + dy * dy) - cylinder.radius, p.z() - cylinder.height);
+}
+
 double GroundTruth::pathClearance(const std::vector<Eigen::Vector3d>& points,
                                   size_t* argmin) const {
   double best = kInfinity;

@@ -112,6 +112,28 @@ TEST(SimCli, RunFreelyHoversToTheReplanLimitWithoutAPlanner) {
       << result.output;
 }
 
+// Without a planner there is no committed path to block: the obstacle never appears, and the
+// run says so.
+TEST(SimCli, RunReportsADynamicObstacleThatNeverAppeared) {
+  const TempConfig config(
+      "rate: 200\nvehicle: {replan_limit: 3}\ndepth_camera: {width: 32, height: 24}\n"
+      "dynamic_obstacle: {enabled: true, appear_time: 0}\n");
+  const CliResult result = run("run --lcm-url memq:// --config " + config.path + " --seed 3");
+  EXPECT_EQ(result.status, 1) << result.output;
+  EXPECT_NE(result.output.find("the dynamic obstacle never appeared"), std::string::npos)
+      << result.output;
+}
+
+TEST(SimCli, RunRefusesADynamicObstacleThatWouldStartInsideTheRobot) {
+  const TempConfig config("dynamic_obstacle: {enabled: true, distance_ahead_min: 0.9}\n");
+  const CliResult result = run("run --lcm-url memq:// --config " + config.path + " --seed 3");
+  EXPECT_EQ(result.status, 2) << result.output;
+  EXPECT_NE(result.output.find("dynamic_obstacle: distance_ahead_min (0.9 m) must exceed radius "
+                               "(0.5 m) + the robot radius (0.5 m)"),
+            std::string::npos)
+      << result.output;
+}
+
 TEST(SimCli, RunWithoutAPlannerAbortsInLockstep) {
   const TempConfig config(
       "lockstep: true\nlockstep_timeout: 0.2\ndepth_camera: {width: 32, height: 24}\n");

@@ -118,6 +118,7 @@ void writeMap(LogWriter& writer, int64_t t) {
 
 struct Channels {
   bool world = true, truth = true, goal = true, explorer = true, event = true, map = true;
+  bool dynamic_obstacle = false;  // SIM_WORLD again at the end, with a third cylinder at (5, 3)
 };
 
 void writeMission(const std::string& path, const Channels& channels = {}) {
@@ -152,6 +153,15 @@ void writeMission(const std::string& path, const Channels& channels = {}) {
     writer.write(t, "SIM_EVENT", event);
   }
   if (channels.map) writeMap(writer, t);
+  if (channels.dynamic_obstacle) {
+    sim_world_t world = makeWorld();
+    world.num_cylinders = 3;
+    world.cylinder_x.push_back(5.0);
+    world.cylinder_y.push_back(3.0);
+    world.cylinder_radius.push_back(0.5);
+    world.cylinder_height.push_back(4.0);
+    writer.write(t, "SIM_WORLD", world);
+  }
 }
 
 // The palette colour nearest to a pixel.
@@ -228,6 +238,26 @@ TEST_F(LogPlot, DrawsWorldMapPathGoalsAndCollisions) {
   cv::Mat dark;
   cv::inRange(legend, cv::Scalar(0, 0, 0), cv::Scalar(100, 100, 100), dark);
   EXPECT_GT(cv::countNonZero(dark), 500);  // text, scale bar and swatches
+}
+
+// The simulator publishes the world again when a dynamic obstacle appears: the last one is drawn.
+TEST_F(LogPlot, TheLastSimWorldIsDrawn) {
+  const std::string log_path = tempPath("mission.lcm");
+  PlotOptions options;
+  options.out = tempPath("top.png");
+  options.size = 400;
+  for (const bool dynamic_obstacle : {false, true}) {
+    Channels channels;
+    channels.dynamic_obstacle = dynamic_obstacle;
+    writeMission(log_path, channels);
+    const auto result = plotLog(log_path, options);
+    ASSERT_TRUE(result) << result.error();
+    const cv::Mat image = cv::imread(options.out, cv::IMREAD_COLOR);
+    ASSERT_FALSE(image.empty());
+    EXPECT_EQ(colourClass(image, result->frame, 5.0, 3.0),
+              dynamic_obstacle ? "obstacle" : "unknown");
+    EXPECT_EQ(colourClass(image, result->frame, 3.0, 4.0), "obstacle");
+  }
 }
 
 TEST_F(LogPlot, TheZBandSelectsWhatTheMapShows) {

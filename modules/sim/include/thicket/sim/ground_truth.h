@@ -49,6 +49,10 @@ class GroundTruth {
   double max_radius_ = 0.0;
 };
 
+/// Signed distance from p to the surface of one cylinder alone, as GroundTruth::distance measures
+/// it (the cylinder extends below the ground, which hides it there): for per-obstacle clearances.
+double cylinderDistance(const Cylinder& cylinder, const Eigen::Vector3d& p);
+
 /// How checkSolvable searches.
 struct OracleOptions {
   /// Edge of the xy grid cells searched [m]. Finer finds narrower passages and costs

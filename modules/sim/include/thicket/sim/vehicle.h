@@ -53,7 +53,9 @@ struct StepReport {
 
 class Vehicle {
  public:
-  /// Starts at rest at the world's start, yaw facing the goal, at utime `start_utime`.
+  /// Keeps a reference to `truth`, which may be reassigned (SimNode adds an obstacle that way):
+  /// samples after that see the new world. Starts at rest at the world's start, yaw facing the
+  /// goal, at utime `start_utime`.
   Vehicle(const GroundTruth& truth, VehicleOptions options, int64_t start_utime = 0);
 
   /// Commits a trajectory received at the current time. Refuses malformed ones (see
@@ -72,6 +74,8 @@ class Vehicle {
   const PathSample& state() const { return state_; }
   Outcome outcome() const { return outcome_; }
   bool hasTrajectory() const { return trajectory_.has_value(); }
+  /// The committed trajectory, nullptr before the first one.
+  const PolynomialTrajectory* trajectory() const { return trajectory_ ? &*trajectory_ : nullptr; }
 
   // Mission metrics (BENCHMARK.md).
   double pathLength() const { return path_length_; }
