@@ -5,7 +5,7 @@
 #include <benchmark/benchmark.h>
 
 #include "bench_worlds.h"
-#include "thicket/sim/ground_truth.h"
+#include "thicket/sim/oracle.h"
 
 namespace thicket::sim {
 namespace {

@@ -32,6 +32,7 @@
 #include "thicket/common/statistics.h"
 #include "thicket/common/time.h"
 #include "thicket/sim/ground_truth.h"
+#include "thicket/sim/oracle.h"
 #include "vio_bridge_node.h"
 
 namespace thicket::bench {
