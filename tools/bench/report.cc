@@ -117,8 +117,8 @@ struct Trial {
   std::string end_reason;
   bool success = false, collision = false, feasible = false;
   // The oracle at the collision radius (the world's robot radius) and at the planning radius.
-  // Files written before the planning radius had a column have `solvable` at the collision
-  // radius and no oracle columns else: the planning radius's are unknown there.
+  // A file written before the oracle had a planning radius has `solvable` at the collision
+  // radius and none of the other columns: the planning radius's stay unknown.
   bool solvable_collision_radius = false;
   std::optional<bool> solvable, needs_overflight;
   std::optional<double> bottleneck_m;
@@ -637,11 +637,12 @@ std::string e1Section(Report& report, const std::vector<Trial>& trials) {
          report.image("e1_success.png", "E1: success rate vs density");
 }
 
-// What the report says where a trials.csv predates the planning radius's oracle columns.
-const char* const kNoPlanningOracle =
-    "Unknown here: this trials.csv has no column solvable_collision_radius. It was written "
-    "before the oracle tested the planning radius; its solvable is the oracle at the collision "
-    "radius, and needs_overflight and bottleneck_m are missing.";
+// The paragraph that stands where a trials.csv predates the planning radius's oracle columns.
+std::string noPlanningOracle() {
+  return "Unknown here: this trials.csv has no column solvable_collision_radius. It was written "
+         "before the oracle tested the planning radius; its solvable is the oracle at the "
+         "collision radius, and needs_overflight and bottleneck_m are missing.\n\n";
+}
 
 // Every world (scenario, density, seed) once, whichever trials flew it: the oracle depends on
 // the world and the planning radius, which every method shares.
@@ -686,7 +687,7 @@ std::string worldsSection(const std::vector<Trial>& trials) {
              "solvable at the planning radius, but only over some cylinder. Bottleneck: the "
              "largest radius of a disc that gets from start to goal in the plane with every "
              "cylinder blocking, whatever its height.\n\n") +
-         (known ? "" : std::string(kNoPlanningOracle) + "\n\n") +
+         (known ? "" : noPlanningOracle()) +
          markdownTable({"scenario", "density", "worlds", "solvable at planning radius",
                         "solvable at collision radius", "need overflight", "median bottleneck [m]"},
                        rows);
@@ -746,15 +747,14 @@ std::string e2Section(Report& report, const std::vector<Trial>& trials) {
       "margin) or of the collision radius (robot radius); solvable worlds are counted in "
       "trials. Target: zero collisions for every conservative method (all but "
       "rrt_star_optimistic). Path length: median over the successful trials.\n\n" +
-      std::string(planning_known ? "" : std::string(kNoPlanningOracle) + "\n\n") +
+      (planning_known ? "" : noPlanningOracle()) +
       markdownTable({"method", "success", "solvable at planning radius",
                      "success on solvable at planning radius", "solvable at collision radius",
                      "success on solvable at collision radius", "collisions",
                      "zero-collision target", "median path length [m]"},
                     rows);
   text += "### Success on worlds solvable at the planning radius\n\n" +
-          (planning_known ? successMatrix(on_planning, order, "density")
-                          : std::string(kNoPlanningOracle) + "\n\n");
+          (planning_known ? successMatrix(on_planning, order, "density") : noPlanningOracle());
   text += "### Success on worlds solvable at the collision radius\n\n" +
           successMatrix(on_collision, order, "density");
   return text;
