@@ -1,11 +1,11 @@
 // Ground-truth queries on forest50 at density 0.2: the distance every executed sample is checked
-// with, and the solvability oracle run once per benchmark trial.
+// with, and the solvability oracle run twice per benchmark trial (planning and collision radius).
 #include <stdexcept>
 
 #include <benchmark/benchmark.h>
 
 #include "bench_worlds.h"
-#include "thicket/sim/ground_truth.h"
+#include "thicket/sim/oracle.h"
 
 namespace thicket::sim {
 namespace {
@@ -38,6 +38,18 @@ void BM_SolvabilityOracle(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_SolvabilityOracle)->Unit(benchmark::kMillisecond);
+
+// The part of the oracle that does not depend on the radius tested (in BM_SolvabilityOracle too).
+void BM_OracleBottleneck(benchmark::State& state) {
+  uint64_t seed = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    const World world = forest50(seed++ % 8);
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(bottleneckClearance(world));
+  }
+}
+BENCHMARK(BM_OracleBottleneck)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace thicket::sim

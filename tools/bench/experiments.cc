@@ -365,7 +365,9 @@ std::string mergeUsage() {
          "  other machines) into DIR: their rows (each trial once; one that ran is preferred to\n"
          "  one that could not) in DIR/rows/merged.csv with the trials' paths and logs, their run\n"
          "  log lines, then writes DIR/trials.csv, a DIR/run_log.csv line and the report.\n"
-         "  Refuses rows files written with other columns.\n";
+         "  Refuses rows files written with other columns (also those of an older thicket-bench\n"
+         "  without the oracle columns solvable_collision_radius, bottleneck_m, "
+         "needs_overflight).\n";
 }
 
 }  // namespace
@@ -513,7 +515,8 @@ Expected<Row> rowFromCells(std::vector<std::string> cells) {
       !parseInt(row.cell("replan_limit"), s.replans)) {
     return unexpected("trial, seed, density or replan_limit is not a number");
   }
-  for (const char* flag : {"success", "collision", "feasible", "solvable"}) {
+  for (const char* flag : {"success", "collision", "feasible", "solvable",
+                           "solvable_collision_radius", "needs_overflight"}) {
     if (row.cell(flag) != "0" && row.cell(flag) != "1") {
       return unexpected(std::string(flag) + " is neither 0 nor 1");
     }
@@ -555,13 +558,26 @@ void warn(const std::string& command, const std::string& message) {
   std::fprintf(stderr, "thicket-bench %s: %s\n", command.c_str(), message.c_str());
 }
 
-// Throws unless `csv` is empty or starts with the rows header.
+// Throws unless `csv` is empty or starts with the rows header. Rows written before the oracle
+// had two radii are refused, not read with the new columns empty: their `solvable` is the oracle
+// at the collision radius, where new rows have it at the planning radius.
 void checkRowsHeader(const std::string& path, const CsvText& csv) {
-  if (!csv.records.empty() && csv.records[0].cells != rowColumns()) {
-    throw std::runtime_error(path + ": not a rows file of this thicket-bench (its header is '" +
-                             joined(csv.records[0].cells, ",") + "', expected '" +
-                             joined(rowColumns(), ",") + "')");
+  if (csv.records.empty() || csv.records[0].cells == rowColumns()) return;
+  const std::vector<std::string>& header = csv.records[0].cells;
+  const auto has = [&](const char* column) {
+    return std::find(header.begin(), header.end(), column) != header.end();
+  };
+  if (has("solvable") && !has("solvable_collision_radius")) {
+    throw std::runtime_error(
+        path +
+        ": rows of an older thicket-bench, whose solvable is the oracle at the collision radius "
+        "and which lack solvable_collision_radius, bottleneck_m and needs_overflight; they cannot "
+        "be resumed or merged with new rows (use another --out; the report still reads that "
+        "folder's trials.csv)");
   }
+  throw std::runtime_error(path + ": not a rows file of this thicket-bench (its header is '" +
+                           joined(header, ",") + "', expected '" + joined(rowColumns(), ",") +
+                           "')");
 }
 
 // The rows of `text` (the file `path`); a torn last line is ignored (a run killed mid-write), a

@@ -18,6 +18,7 @@
 #include <optional>
 #include <set>
 #include <stdexcept>
+#include <tuple>
 #include <utility>
 
 #include "csv.h"
@@ -114,7 +115,13 @@ struct Trial {
   TrialSpec spec;   // what was flown
   std::string key;  // spec.key()
   std::string end_reason;
-  bool success = false, collision = false, feasible = false, solvable = false;
+  bool success = false, collision = false, feasible = false;
+  // The oracle at the collision radius (the world's robot radius) and at the planning radius.
+  // A file written before the oracle had a planning radius has `solvable` at the collision
+  // radius and none of the other columns: the planning radius's stay unknown.
+  bool solvable_collision_radius = false;
+  std::optional<bool> solvable, needs_overflight;
+  std::optional<double> bottleneck_m;
   double min_clearance_m = 0, distance_to_goal_m = 0, path_length_m = 0, straight_line_m = 0,
          path_time_s = 0, wall_time_s = 0;
   int64_t num_replans = 0;
@@ -144,6 +151,15 @@ std::vector<Trial> readTrials(const std::string& path) {
                path_time = columns.require("path_time_s"), solvable = columns.require("solvable"),
                wall_time = columns.require("wall_time_s"),
                end_reason = columns.require("end_reason");
+  // The planning radius's oracle columns come together; without them the file is older.
+  struct PlanningOracle {
+    size_t collision_radius, bottleneck, overflight;
+  };
+  std::optional<PlanningOracle> planning;
+  if (columns.has("solvable_collision_radius")) {
+    planning = PlanningOracle{columns.require("solvable_collision_radius"),
+                              columns.require("bottleneck_m"), columns.require("needs_overflight")};
+  }
 
   // <stage>_ms_median, _ms_p95 and _ms_max: a stage has all three columns.
   struct StageColumns {
@@ -195,7 +211,14 @@ std::vector<Trial> readTrials(const std::string& path) {
     t.path_length_m = columns.number(row, path_length, zero);
     t.straight_line_m = columns.number(row, straight_line, zero);
     t.path_time_s = columns.number(row, path_time, zero);
-    t.solvable = columns.flag(row, solvable, no);
+    if (planning) {
+      t.solvable = columns.flag(row, solvable, no);
+      t.solvable_collision_radius = columns.flag(row, planning->collision_radius, no);
+      t.bottleneck_m = columns.number(row, planning->bottleneck, zero);
+      t.needs_overflight = columns.flag(row, planning->overflight, no);
+    } else {
+      t.solvable_collision_radius = columns.flag(row, solvable, no);
+    }
     t.wall_time_s = columns.number(row, wall_time, zero);
     for (const auto& [stage, c] : stages) {
       if (row.cells[c.median].empty()) continue;  // the trial did not run this stage
@@ -614,23 +637,88 @@ std::string e1Section(Report& report, const std::vector<Trial>& trials) {
          report.image("e1_success.png", "E1: success rate vs density");
 }
 
+// The paragraph that stands where a trials.csv predates the planning radius's oracle columns.
+std::string noPlanningOracle() {
+  return "Unknown here: this trials.csv has no column solvable_collision_radius. It was written "
+         "before the oracle tested the planning radius; its solvable is the oracle at the "
+         "collision radius, and needs_overflight and bottleneck_m are missing.\n\n";
+}
+
+// Every world (scenario, density, seed) once, whichever trials flew it: the oracle depends on
+// the world and the planning radius, which every method shares.
+std::string worldsSection(const std::vector<Trial>& trials) {
+  std::map<std::tuple<std::string, double, uint64_t>, const Trial*> worlds;
+  for (const Trial& t : trials) {
+    if (t.ran()) worlds.emplace(std::tuple{t.spec.scenario, t.spec.density, t.spec.seed}, &t);
+  }
+  if (worlds.empty()) return "";
+  struct Counts {
+    int worlds = 0, solvable = 0, solvable_collision = 0, overflight = 0;
+    std::vector<double> bottlenecks;
+  };
+  std::map<std::pair<std::string, double>, Counts> by_density;
+  bool known = true;
+  for (const auto& [world, t] : worlds) {
+    Counts& counts = by_density[{std::get<0>(world), std::get<1>(world)}];
+    ++counts.worlds;
+    counts.solvable_collision += t->solvable_collision_radius;
+    if (!t->solvable) {
+      known = false;
+      continue;
+    }
+    counts.solvable += *t->solvable;
+    counts.overflight += *t->needs_overflight;
+    counts.bottlenecks.push_back(*t->bottleneck_m);
+  }
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& [scenario_density, counts] : by_density) {
+    const auto ifKnown = [known](int count) { return known ? std::to_string(count) : "–"; };
+    rows.push_back({scenario_density.first, densityText(scenario_density.second),
+                    std::to_string(counts.worlds), ifKnown(counts.solvable),
+                    std::to_string(counts.solvable_collision), ifKnown(counts.overflight),
+                    counts.bottlenecks.empty() ? "–" : print("%.3f", median(counts.bottlenecks))});
+  }
+  return std::string(
+             "## Worlds: what the oracle says\n\n"
+             "Every world (scenario, density, seed) some trial flew, once. Solvable: the "
+             "ground-truth oracle finds a path for a sphere of the planning radius (robot radius "
+             "+ the planner's acceptance margin, the clearance the planner demands) or of the "
+             "collision radius (robot radius), flying over cylinders low enough. Need overflight: "
+             "solvable at the planning radius, but only over some cylinder. Bottleneck: the "
+             "largest radius of a disc that gets from start to goal in the plane with every "
+             "cylinder blocking, whatever its height.\n\n") +
+         (known ? "" : noPlanningOracle()) +
+         markdownTable({"scenario", "density", "worlds", "solvable at planning radius",
+                        "solvable at collision radius", "need overflight", "median bottleneck [m]"},
+                       rows);
+}
+
 std::string e2Section(Report& report, const std::vector<Trial>& trials) {
   const auto e2 = select(trials, "E2");
   if (e2.empty()) return "";
-  SuccessTable all, on_solvable;
+  // Success over the worlds solvable at the planning radius and at the collision radius.
+  SuccessTable all, on_planning, on_collision;
   std::map<std::string, int> collisions;
   std::map<std::string, std::vector<double>> lengths;
-  std::map<std::string, Tally> overall, overall_solvable;
+  std::map<std::string, Tally> overall, overall_planning, overall_collision;
+  bool planning_known = true;
   for (const Trial* t : e2) {
-    all[t->spec.method][t->spec.density].add(t->success);
-    overall[t->spec.method].add(t->success);
-    on_solvable[t->spec.method];  // every method gets a column
-    if (t->solvable) {
-      on_solvable[t->spec.method][t->spec.density].add(t->success);
-      overall_solvable[t->spec.method].add(t->success);
+    const std::string& method = t->spec.method;
+    all[method][t->spec.density].add(t->success);
+    overall[method].add(t->success);
+    on_planning[method];  // every method gets a column
+    on_collision[method];
+    planning_known = planning_known && t->solvable.has_value();
+    if (t->solvable.value_or(false)) {
+      on_planning[method][t->spec.density].add(t->success);
+      overall_planning[method].add(t->success);
     }
-    collisions[t->spec.method] += t->collision;
-    if (t->success) lengths[t->spec.method].push_back(t->path_length_m);
+    if (t->solvable_collision_radius) {
+      on_collision[method][t->spec.density].add(t->success);
+      overall_collision[method].add(t->success);
+    }
+    collisions[method] += t->collision;
+    if (t->success) lengths[method].push_back(t->path_length_m);
   }
   const auto order = ordered(keysOf(all), methodNames());
   report.figureData("e2_success.png", "e2_success.csv", successCsv(all, order));
@@ -645,19 +733,30 @@ std::string e2Section(Report& report, const std::vector<Trial>& trials) {
   for (const std::string& method : order) {
     std::string target = "not required (plans through unknown space)";
     if (conservativeMethod(method)) target = collisions[method] == 0 ? "met" : "MISSED";
+    const Tally& planning = overall_planning[method];
+    const Tally& collision = overall_collision[method];
     rows.push_back({method, successCell(overall[method]),
-                    std::to_string(overall_solvable[method].trials),
-                    successCell(overall_solvable[method]), std::to_string(collisions[method]),
-                    target, medianOrDash(lengths[method])});
+                    planning_known ? std::to_string(planning.trials) : "–",
+                    planning_known ? successCell(planning) : "–", std::to_string(collision.trials),
+                    successCell(collision), std::to_string(collisions[method]), target,
+                    medianOrDash(lengths[method])});
   }
   text +=
-      "### Per method, all densities\n\nA world is solvable when the ground-truth oracle finds a "
-      "path. Target: zero collisions for every conservative method (all but "
+      "### Per method, all densities\n\nA world is solvable when the ground-truth oracle finds "
+      "a path for a sphere of the planning radius (robot radius + the planner's acceptance "
+      "margin) or of the collision radius (robot radius); solvable worlds are counted in "
+      "trials. Target: zero collisions for every conservative method (all but "
       "rrt_star_optimistic). Path length: median over the successful trials.\n\n" +
-      markdownTable({"method", "success", "solvable worlds", "success on solvable worlds",
-                     "collisions", "zero-collision target", "median path length [m]"},
+      (planning_known ? "" : noPlanningOracle()) +
+      markdownTable({"method", "success", "solvable at planning radius",
+                     "success on solvable at planning radius", "solvable at collision radius",
+                     "success on solvable at collision radius", "collisions",
+                     "zero-collision target", "median path length [m]"},
                     rows);
-  text += "### Success on solvable worlds only\n\n" + successMatrix(on_solvable, order, "density");
+  text += "### Success on worlds solvable at the planning radius\n\n" +
+          (planning_known ? successMatrix(on_planning, order, "density") : noPlanningOracle());
+  text += "### Success on worlds solvable at the collision radius\n\n" +
+          successMatrix(on_collision, order, "density");
   return text;
 }
 
@@ -1007,6 +1106,7 @@ std::string writeReport(const std::string& out_dir, const ReportOptions& options
     text += overviewSection(trials, runs, has_e5, e5.size());
     text += throughputSection(trials, runs);
     text += safetySection(trials);
+    text += worldsSection(trials);
     text += e1Section(report, trials);
     text += e2Section(report, trials);
     text += e3Section(report, trials);

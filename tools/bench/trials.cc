@@ -32,6 +32,7 @@
 #include "thicket/common/statistics.h"
 #include "thicket/common/time.h"
 #include "thicket/sim/ground_truth.h"
+#include "thicket/sim/oracle.h"
 #include "vio_bridge_node.h"
 
 namespace thicket::bench {
@@ -246,6 +247,20 @@ std::unique_ptr<Node> stereoDepthNode(lcm::LCM& lcm, const RunOptions& options,
   return std::make_unique<stereo_depth::StereoDepthNode>(lcm, node, steadyClockMillis);
 }
 
+// The oracle's columns: at the planning radius (the clearance the planner accepts samples with)
+// and at the collision radius (the world's robot radius, which collisions are judged by).
+void checkOracle(const sim::World& world, const local_planner::LocalPlannerNodeOptions& planner,
+                 TrialResult& result) {
+  const sim::GroundTruth truth(world);
+  sim::OracleOptions planning;
+  planning.radius = planner.planner.loco.robot_radius + planner.planner.loco.clearance_margin;
+  const sim::OracleResult oracle = sim::checkSolvable(truth, planning);
+  result.solvable = oracle.solvable;
+  result.bottleneck_m = oracle.bottleneck_m;
+  result.needs_overflight = oracle.needs_overflight;
+  result.solvable_collision_radius = sim::checkSolvable(truth).solvable;
+}
+
 }  // namespace
 
 std::string failedEndReason(const std::string& why) {
@@ -275,7 +290,9 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   result.trial = trial;
   result.seed = world.seed;
   result.straight_line_m = (world.goal - world.start).norm();
-  result.solvable = sim::checkSolvable(sim::GroundTruth(world)).solvable;
+  const TrialGraphOptions graph = trialGraphOptions(options.method, options.goal_finding,
+                                                    world.seed, world.bounds_min, world.bounds_max);
+  checkOracle(world, graph.planner, result);
 
   const auto started = std::chrono::steady_clock::now();
   lcm::LCM lcm("memq://");
@@ -285,8 +302,6 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   const sim::SimOptions sim_options = simOptions(options, world);
   sim::SimNode sim(lcm, sim_options, world);
   const std::unique_ptr<Node> stereo = stereoDepthNode(lcm, options, sim_options, world);
-  const TrialGraphOptions graph = trialGraphOptions(options.method, options.goal_finding,
-                                                    world.seed, world.bounds_min, world.bounds_max);
   vio_bridge::VioBridgeNode bridge(lcm, graph.bridge, steadyClockMillis);
   mapper::MapperNode mapper(lcm, graph.mapper, graph.map_id, steadyClockMillis);
   std::unique_ptr<Node> explorer;
@@ -404,10 +419,21 @@ void writePathFile(const std::string& path, const std::vector<sim::PathSample>& 
 }
 
 const std::vector<std::string>& outcomeColumns() {
-  static const std::vector<std::string> columns = {
-      "success",     "collision",          "min_clearance_m", "feasible",
-      "num_replans", "distance_to_goal_m", "path_length_m",   "straight_line_m",
-      "path_time_s", "solvable",           "wall_time_s",     "end_reason"};
+  static const std::vector<std::string> columns = {"success",
+                                                   "collision",
+                                                   "min_clearance_m",
+                                                   "feasible",
+                                                   "num_replans",
+                                                   "distance_to_goal_m",
+                                                   "path_length_m",
+                                                   "straight_line_m",
+                                                   "path_time_s",
+                                                   "solvable",
+                                                   "solvable_collision_radius",
+                                                   "bottleneck_m",
+                                                   "needs_overflight",
+                                                   "wall_time_s",
+                                                   "end_reason"};
   return columns;
 }
 
@@ -425,6 +451,9 @@ std::vector<std::string> outcomeCells(const TrialResult& r) {
           fixed(r.straight_line_m),
           fixed(r.path_time_s),
           flag(r.solvable),
+          flag(r.solvable_collision_radius),
+          fixed(r.bottleneck_m),
+          flag(r.needs_overflight),
           fixed(r.wall_time_s),
           reason};
 }
@@ -541,13 +570,18 @@ std::vector<TrialResult> runAll(const RunOptions& options) {
 
 void printSummary(const RunOptions& options, const std::string& scenario,
                   const std::vector<TrialResult>& results) {
-  int success = 0, collisions = 0, solvable = 0, success_on_solvable = 0;
+  int success = 0, collisions = 0, overflight = 0;
+  // Solvable worlds and successes on them at the planning and at the collision radius.
+  int solvable = 0, success_on_solvable = 0, solvable_collision = 0, success_on_collision = 0;
   std::vector<double> successful_lengths;
   for (const TrialResult& r : results) {
     success += r.success;
     collisions += r.collision;
+    overflight += r.needs_overflight;
     solvable += r.solvable;
     success_on_solvable += r.success && r.solvable;
+    solvable_collision += r.solvable_collision_radius;
+    success_on_collision += r.success && r.solvable_collision_radius;
     if (r.success) successful_lengths.push_back(r.path_length_m);
   }
   const int n = static_cast<int>(results.size());
@@ -556,8 +590,11 @@ void printSummary(const RunOptions& options, const std::string& scenario,
       scenario.c_str(), options.density, options.method.c_str(), options.goal_finding.c_str(),
       options.sensor.c_str(), n, static_cast<long long>(options.seed_base),
       static_cast<long long>(options.seed_base + n - 1));
-  std::printf("success %d/%d, collisions %d, solvable %d/%d (success on solvable %d/%d)\n", success,
-              n, collisions, solvable, n, success_on_solvable, solvable);
+  std::printf(
+      "success %d/%d, collisions %d; solvable at the planning radius %d/%d (success on them "
+      "%d/%d, %d need overflight), at the collision radius %d/%d (success on them %d/%d)\n",
+      success, n, collisions, solvable, n, success_on_solvable, solvable, overflight,
+      solvable_collision, n, success_on_collision, solvable_collision);
   if (successful_lengths.empty()) {
     std::printf("median path length of successful trials: none succeeded\n");
   } else {

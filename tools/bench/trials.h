@@ -64,9 +64,15 @@ struct TrialResult {
   double path_length_m = 0;
   double straight_line_m = 0;
   double path_time_s = 0;
+  /// The oracle (sim/oracle.h) at the planning radius: the robot radius plus the planner's
+  /// acceptance margin, what the planner demands of every sample it accepts.
   bool solvable = false;
-  double wall_time_s = 0;  ///< building the graph and flying the mission
-  std::string end_reason;  ///< the sim's, or "error: ..." when the trial could not run
+  /// The oracle at the world's robot radius, the radius collisions are judged by.
+  bool solvable_collision_radius = false;
+  double bottleneck_m = 0;        ///< the world's 2D bottleneck clearance
+  bool needs_overflight = false;  ///< solvable at the planning radius only over a cylinder
+  double wall_time_s = 0;         ///< building the graph and flying the mission
+  std::string end_reason;         ///< the sim's, or "error: ..." when the trial could not run
   /// By "<module>_<stage>" as published on MODULE_TIMING.
   std::map<std::string, StageTiming> timings;
   std::vector<sim::PathSample> path;

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdint>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
+
+#include "grid_cell.h"
 
 namespace thicket::sim {
 namespace {
@@ -16,8 +16,6 @@ namespace {
 constexpr double kCellSize = 1.0;
 // Cylinders spread over kilometres get coarser cells rather than a huge grid.
 constexpr double kMaxCellsPerSide = 1024;
-// checkSolvable refuses grids larger than this (1e8 cells take about 0.6 GB of search state).
-constexpr double kMaxOracleCells = 1e8;
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
@@ -34,24 +32,6 @@ Eigen::Vector3d cornerGradient(double a, double b, const Eigen::Vector3d& grad_a
                                const Eigen::Vector3d& grad_b) {
   if (a > 0 && b > 0) return (a * grad_a + b * grad_b) / std::sqrt(a * a + b * b);
   return a >= b ? grad_a : grad_b;
-}
-
-// Index of the grid cell holding coordinate x, clamped to [0, cells - 1] (NaN gives 0).
-int cellIndex(double x, double origin, double cell_size, int cells) {
-  const double f = (x - origin) / cell_size;
-  return f > 0 ? (f < cells ? static_cast<int>(f) : cells - 1) : 0;
-}
-
-OracleResult unsolvable(std::string reason) {
-  OracleResult result;
-  result.reason = std::move(reason);
-  return result;
-}
-
-std::string format(double value) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%g", value);
-  return text;
 }
 
 }  // namespace
@@ -196,191 +176,6 @@ double GroundTruth::pathClearance(const std::vector<Eigen::Vector3d>& points,
     }
   }
   return best;
-}
-
-OracleResult checkSolvable(const GroundTruth& ground_truth, const OracleOptions& options) {
-  const World& world = ground_truth.world();
-  const double res = options.resolution;
-  if (!(res > 0) || !std::isfinite(res)) {
-    throw std::invalid_argument("checkSolvable: resolution must be positive and finite");
-  }
-  const double r = world.robot_radius;
-  const double bottom = world.bounds_min.z() + r;  // lowest and highest centre altitudes
-  const double top = world.bounds_max.z() - r;
-  if (top < bottom) return unsolvable("the world is lower than the robot's diameter");
-  for (const auto& [name, p] : {std::pair{"start", world.start}, std::pair{"goal", world.goal}}) {
-    if (!(p.z() >= bottom && p.z() <= top)) {
-      return unsolvable(std::string(name) + " altitude " + format(p.z()) + " m is outside [" +
-                        format(bottom) + ", " + format(top) + "] m");
-    }
-    const double clearance = ground_truth.distance(p);
-    if (!(clearance >= r)) {
-      return unsolvable(std::string(name) + " is in collision: clearance " + format(clearance) +
-                        " m < robot radius " + format(r) + " m");
-    }
-  }
-
-  const Eigen::Vector2d origin = world.bounds_min.head<2>();
-  const Eigen::Vector2d extent = (world.bounds_max - world.bounds_min).head<2>();
-  const double cells_x = std::ceil(extent.x() / res);
-  const double cells_y = std::ceil(extent.y() / res);
-  if (cells_x * cells_y > kMaxOracleCells) {
-    throw std::invalid_argument("checkSolvable: resolution " + format(res) + " m gives " +
-                                format(cells_x * cells_y) + " cells, more than " +
-                                format(kMaxOracleCells));
-  }
-  const int nx = static_cast<int>(cells_x);
-  const int ny = static_cast<int>(cells_y);
-  const size_t cells = static_cast<size_t>(nx) * ny;
-  const auto centre = [&](ptrdiff_t cell) {
-    return Eigen::Vector2d(origin.x() + (static_cast<double>(cell % nx) + 0.5) * res,
-                           origin.y() + (static_cast<double>(cell / nx) + 0.5) * res);
-  };
-  // A cell is free when every point of it is at least r from the obstacles: its centre's clearance
-  // minus the half diagonal, the farthest any point of the cell is from its centre.
-  const double half_diagonal = res * std::sqrt(0.5);
-  const double reach = r + half_diagonal;
-  std::vector<uint8_t> blocked(cells, 0);
-  for (int i = 0; i < nx; ++i) {
-    const double x = origin.x() + (i + 0.5) * res;
-    if (std::min(x - origin.x(), origin.x() + extent.x() - x) < reach) {
-      for (int j = 0; j < ny; ++j) blocked[static_cast<size_t>(j) * nx + i] = 1;
-    }
-  }
-  for (int j = 0; j < ny; ++j) {
-    const double y = origin.y() + (j + 0.5) * res;
-    if (std::min(y - origin.y(), origin.y() + extent.y() - y) < reach) {
-      std::fill_n(blocked.begin() + static_cast<ptrdiff_t>(j) * nx, nx, 1);
-    }
-  }
-  // Over cylinders with height + r <= top the sphere flies; the others block within r.
-  for (const Cylinder& c : world.cylinders) {
-    if (c.height + r <= top) continue;
-    const double block = c.radius + reach;
-    const auto range = [&](double axis, double o, int n) {
-      const double from = std::ceil((axis - block - o) / res - 0.5);
-      const double to = std::floor((axis + block - o) / res - 0.5);
-      return std::pair{static_cast<int>(std::clamp(from, 0.0, 1.0 * n)),
-                       static_cast<int>(std::clamp(to, -1.0, n - 1.0))};
-    };
-    const auto [i0, i1] = range(c.x, origin.x(), nx);
-    const auto [j0, j1] = range(c.y, origin.y(), ny);
-    for (int j = j0; j <= j1; ++j) {
-      const double dy = origin.y() + (j + 0.5) * res - c.y;
-      for (int i = i0; i <= i1; ++i) {
-        const double dx = origin.x() + (i + 0.5) * res - c.x;
-        if (dx * dx + dy * dy < block * block) blocked[static_cast<size_t>(j) * nx + i] = 1;
-      }
-    }
-  }
-
-  const auto cellOf = [&](const Eigen::Vector3d& p) {
-    return static_cast<ptrdiff_t>(cellIndex(p.y(), origin.y(), res, ny)) * nx +
-           cellIndex(p.x(), origin.x(), res, nx);
-  };
-  const ptrdiff_t start = cellOf(world.start);
-  const ptrdiff_t goal = cellOf(world.goal);
-  for (const auto& [name, cell] : {std::pair{"start", start}, std::pair{"goal", goal}}) {
-    if (blocked[cell]) {
-      return unsolvable(std::string(name) +
-                        "'s grid cell is blocked: it is within r + half a cell " +
-                        "diagonal of an obstacle at resolution " + format(res) + " m");
-    }
-  }
-
-  // A* over 8-connected cells with integer edge costs (12 straight, 17 diagonal: sqrt(2) to
-  // 0.2 %) and the octile heuristic. Integer f values let a ring of buckets replace a heap: f never
-  // decreases, and an expansion raises it by at most two diagonal steps. Within a bucket the newest
-  // entry goes first, following the deepest branch, which keeps the search narrow in open space.
-  constexpr int kStraight = 12;
-  constexpr int kDiagonal = 17;
-  constexpr uint8_t kNoParent = 8;
-  // The outermost cells are always blocked (their centres are half a cell from a wall), so every
-  // neighbour of a free cell is on the grid.
-  constexpr std::array<int, 8> kDi = {1, -1, 0, 0, 1, -1, 1, -1};
-  constexpr std::array<int, 8> kDj = {0, 0, 1, -1, 1, 1, -1, -1};
-  std::array<ptrdiff_t, 8> step;
-  for (int d = 0; d < 8; ++d) step[d] = kDj[d] * static_cast<ptrdiff_t>(nx) + kDi[d];
-  const int gi = static_cast<int>(goal % nx);
-  const int gj = static_cast<int>(goal / nx);
-  const auto heuristic = [&](int i, int j) {
-    const int di = std::abs(i - gi);
-    const int dj = std::abs(j - gj);
-    return kStraight * std::abs(di - dj) + kDiagonal * std::min(di, dj);
-  };
-  std::vector<int> cost(cells, std::numeric_limits<int>::max());
-  std::vector<uint8_t> parent(cells, kNoParent);
-  std::array<std::vector<ptrdiff_t>, 2 * kDiagonal + 1> open;  // by f modulo their count
-  size_t queued = 1;
-  int f = heuristic(static_cast<int>(start % nx), static_cast<int>(start / nx));
-  cost[start] = 0;
-  open[f % open.size()].push_back(start);
-  while (queued > 0) {
-    std::vector<ptrdiff_t>& bucket = open[f % open.size()];
-    if (bucket.empty()) {
-      ++f;
-      continue;
-    }
-    const ptrdiff_t cell = bucket.back();
-    bucket.pop_back();
-    --queued;
-    const int i = static_cast<int>(cell % nx);
-    const int j = static_cast<int>(cell / nx);
-    if (cost[cell] + heuristic(i, j) != f) continue;  // superseded by a cheaper entry
-    if (cell == goal) break;
-    for (int d = 0; d < 8; ++d) {
-      const ptrdiff_t next = cell + step[d];
-      const int g = cost[cell] + (d < 4 ? kStraight : kDiagonal);
-      if (blocked[next] || g >= cost[next]) continue;
-      cost[next] = g;
-      parent[next] = static_cast<uint8_t>(d);
-      open[(g + heuristic(i + kDi[d], j + kDj[d])) % open.size()].push_back(next);
-      ++queued;
-    }
-  }
-  if (cost[goal] == std::numeric_limits<int>::max()) {
-    return unsolvable("the goal cannot be reached from the start at resolution " + format(res) +
-                      " m (passages narrower than about 2 r + 3 cells may be missed)");
-  }
-
-  std::vector<ptrdiff_t> route = {goal};  // cells from the goal back to the start
-  while (route.back() != start) route.push_back(route.back() - step[parent[route.back()]]);
-  std::reverse(route.begin(), route.end());
-
-  // Fly at one altitude, the lowest that clears everything near the route (a cylinder within
-  // reach of a route cell raises it to the cylinder's height + r), but not below the start and
-  // goal. Route cells are free, so no cylinder near them is too tall for that.
-  double altitude = std::max(bottom, std::min(world.start.z(), world.goal.z()));
-  for (const ptrdiff_t cell : route) {
-    const Eigen::Vector2d c = centre(cell);
-    for (const Cylinder& cylinder : world.cylinders) {
-      const double limit = cylinder.radius + reach;
-      if ((c - Eigen::Vector2d(cylinder.x, cylinder.y)).squaredNorm() < limit * limit) {
-        altitude = std::max(altitude, cylinder.height + r);
-      }
-    }
-  }
-
-  OracleResult result;
-  result.solvable = true;
-  const auto add = [&result](const Eigen::Vector3d& p) {
-    if (!result.path.empty()) {
-      const double length = (p - result.path.back()).norm();
-      if (length == 0) return;
-      result.path_length += length;
-    }
-    result.path.push_back(p);
-  };
-  add(world.start);
-  add(Eigen::Vector3d(world.start.x(), world.start.y(), altitude));
-  for (size_t k = 0; k < route.size(); ++k) {
-    // Straight runs of cells need only their ends.
-    const bool turn = k == 0 || k + 1 == route.size() || parent[route[k]] != parent[route[k + 1]];
-    if (turn) add(Eigen::Vector3d(centre(route[k]).x(), centre(route[k]).y(), altitude));
-  }
-  add(Eigen::Vector3d(world.goal.x(), world.goal.y(), altitude));
-  add(world.goal);
-  return result;
 }
 
 }  // namespace thicket::sim

@@ -1,12 +1,25 @@
 // Worlds and trajectories the simulator tests share.
 #pragma once
 
+#include <cstdint>
+#include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "thicket/common/polynomial_trajectory.h"
 #include "thicket/sim/world.h"
 
 namespace thicket::sim::testing {
+
+/// The world of (scenario, density, seed) from the source tree's config/worlds.
+inline World generated(const std::string& scenario, double density, uint64_t seed) {
+  const auto spec = loadScenario(scenario, std::string(THICKET_SOURCE_DIR) + "/config/worlds");
+  EXPECT_TRUE(spec.ok()) << spec.error();
+  const auto world = generateWorld(*spec, density, seed);
+  EXPECT_TRUE(world.ok()) << world.error();
+  return *world;
+}
 
 /// A 20 x 10 x 5 m box, start (1, 5, 1.5), goal (10, 5, 1.5), robot radius 0.5.
 inline World corridor(std::vector<Cylinder> cylinders = {}) {

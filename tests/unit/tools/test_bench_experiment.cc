@@ -251,15 +251,33 @@ TEST_F(BenchExperimentRun, WritesTheTrialsRowsPathsAndRunLog) {
 
   const Table trials = readTable(dir() + "/trials.csv");
   ASSERT_EQ(trials.size(), 5u);
-  const std::vector<std::string> fixed = {
-      "experiment",    "trial",           "seed",        "scenario",     "density",
-      "method",        "goal_finding",    "sensor",      "replan_limit", "success",
-      "collision",     "min_clearance_m", "feasible",    "num_replans",  "distance_to_goal_m",
-      "path_length_m", "straight_line_m", "path_time_s", "solvable",     "wall_time_s",
-      "end_reason"};
+  const std::vector<std::string> fixed = {"experiment",
+                                          "trial",
+                                          "seed",
+                                          "scenario",
+                                          "density",
+                                          "method",
+                                          "goal_finding",
+                                          "sensor",
+                                          "replan_limit",
+                                          "success",
+                                          "collision",
+                                          "min_clearance_m",
+                                          "feasible",
+                                          "num_replans",
+                                          "distance_to_goal_m",
+                                          "path_length_m",
+                                          "straight_line_m",
+                                          "path_time_s",
+                                          "solvable",
+                                          "solvable_collision_radius",
+                                          "bottleneck_m",
+                                          "needs_overflight",
+                                          "wall_time_s",
+                                          "end_reason"};
   const std::vector<std::string>& header = trials[0];
   ASSERT_GT(header.size(), fixed.size());
-  EXPECT_EQ(std::vector<std::string>(header.begin(), header.begin() + 21), fixed);
+  EXPECT_EQ(std::vector<std::string>(header.begin(), header.begin() + 24), fixed);
   EXPECT_EQ((header.size() - fixed.size()) % 3, 0u);
   for (const char* column :
        {"mapper_tsdf_insert_ms_median", "mapper_esdf_update_ms_p95",
@@ -439,15 +457,15 @@ TEST(BenchExperiment, ATrialThatCouldNotRunIsRecordedAndTriedAgain) {
   EXPECT_NE(failed.output.find("1 could not run"), std::string::npos) << failed.output;
   Table trials = readTable(out + "/trials.csv");
   ASSERT_EQ(trials.size(), 2u);
-  EXPECT_EQ(trials[1][20].rfind("error: ", 0), 0u) << trials[1][20];
-  EXPECT_NE(trials[1][20].find("keep_clear"), std::string::npos) << trials[1][20];
+  EXPECT_EQ(trials[1][23].rfind("error: ", 0), 0u) << trials[1][23];
+  EXPECT_NE(trials[1][23].find("keep_clear"), std::string::npos) << trials[1][23];
 
   const CliResult retried = bench(selection + "--out " + out);
   EXPECT_EQ(retried.status, 0) << retried.output;
   EXPECT_NE(retried.output.find("1 run, 0 skipped"), std::string::npos) << retried.output;
   trials = readTable(out + "/trials.csv");
   ASSERT_EQ(trials.size(), 2u);
-  EXPECT_EQ(trials[1][20].rfind("error: ", 0), std::string::npos) << trials[1][20];
+  EXPECT_EQ(trials[1][23].rfind("error: ", 0), std::string::npos) << trials[1][23];
   EXPECT_EQ(trials[1][0] + trials[1][5] + trials[1][6], "E1noneline");
 }
 
@@ -469,6 +487,30 @@ TEST(BenchExperiment, MergeRefusesRowsOfAnotherProgram) {
       input);
   EXPECT_EQ(run.status, 1) << run.output;
   EXPECT_NE(run.output.find("not a rows file"), std::string::npos) << run.output;
+}
+
+// Rows of a thicket-bench before the planning radius's oracle: their solvable means the collision
+// radius's, so neither a resume nor a merge mixes them with new rows.
+TEST(BenchExperiment, RowsWithoutThePlanningOracleAreRefused) {
+  const std::string input = tempDir("old_rows");
+  fs::create_directories(input + "/rows");
+  writeFile(input + "/rows/shard-0-of-1.csv",
+            "experiment,trial,seed,scenario,density,method,goal_finding,sensor,replan_limit,"
+            "success,collision,min_clearance_m,feasible,num_replans,distance_to_goal_m,"
+            "path_length_m,straight_line_m,path_time_s,solvable,wall_time_s,end_reason,timings\n"
+            "E2,0,0,paper,0.1,none,soft,depth,120,1,0,0.9,1,12,0.1,14,13,15,1,2,goal reached,\n");
+  const std::string message =
+      "shard-0-of-1.csv: rows of an older thicket-bench, whose solvable is the oracle at the "
+      "collision radius";
+  const CliResult merge = bench("merge --out " + tempDir("old_merged") + " " + input);
+  EXPECT_EQ(merge.status, 1) << merge.output;
+  EXPECT_NE(merge.output.find(message), std::string::npos) << merge.output;
+  EXPECT_FALSE(fs::exists(tempDir("old_merged") + "/trials.csv"));
+
+  const CliResult run =
+      bench("experiment --experiment E2 --method none --density 0.1 --trials 1 --out " + input);
+  EXPECT_EQ(run.status, 1) << run.output;
+  EXPECT_NE(run.output.find(message), std::string::npos) << run.output;
 }
 
 }  // namespace

@@ -61,18 +61,36 @@ struct Row {
   double clearance = 0.8;
   double length = 10;
   double path_time = 10, wall_time = 2;
-  bool solvable = true;
   std::string end_reason = "replan limit";
   std::map<std::string, std::array<double, 3>> timings;  // median, p95, max [ms]
 };
 
 const std::vector<std::string> kStages = {"explorer_goal_selection", "mapper_tsdf_insert"};
 
-std::string header() {
+// The oracle's columns of the world a row flies, the same for every trial on it. Paper worlds:
+// seed 4 is unsolvable, seed 3 at 0.2 only at the collision radius, seed 2 needs overflight.
+struct WorldOracle {
+  bool solvable, solvable_collision, overflight;
+  double bottleneck;
+};
+
+WorldOracle worldOracle(const Row& r) {
+  if (r.scenario != "paper") return {true, true, false, 1.0};
+  const bool dense = r.density > 0.15;
+  const double bottlenecks[2][5] = {{0.9, 0.8, 0.5, 0.7, 0.45}, {0.75, 0.65, 0.4, 0.55, 0.3}};
+  return {r.seed != 4 && !(dense && r.seed == 3), r.seed != 4, r.seed == 2,
+          r.seed < 5 ? bottlenecks[dense][r.seed] : 0.6 + 0.05 * (r.seed - 5)};
+}
+
+// `old`: a trials.csv of a thicket-bench before the planning radius's oracle, whose solvable is
+// the collision radius's and which has no other oracle column.
+std::string header(bool old = false) {
   std::string text =
       "experiment,trial,seed,scenario,density,method,goal_finding,sensor,replan_limit,success,"
       "collision,min_clearance_m,feasible,num_replans,distance_to_goal_m,path_length_m,"
-      "straight_line_m,path_time_s,solvable,wall_time_s,end_reason";
+      "straight_line_m,path_time_s,solvable,";
+  text += old ? "" : "solvable_collision_radius,bottleneck_m,needs_overflight,";
+  text += "wall_time_s,end_reason";
   for (const std::string& stage : kStages) {
     text += "," + stage + "_ms_median," + stage + "_ms_p95," + stage + "_ms_max";
   }
@@ -85,15 +103,22 @@ std::string quoted(const std::string& text) {
   return out + "\"";
 }
 
-std::string line(const Row& r) {
+std::string line(const Row& r, bool old = false) {
+  const WorldOracle oracle = worldOracle(r);
   char density[32];
   std::snprintf(density, sizeof(density), "%g", r.density);
   std::ostringstream s;
   s << r.experiment << "," << r.trial << "," << r.seed << "," << r.scenario << "," << density << ","
     << r.method << "," << r.goal_finding << "," << r.sensor << "," << r.replan_limit << ","
     << r.success << "," << r.collision << "," << r.clearance << ",1,12," << (r.success ? 0.1 : 5.0)
-    << "," << r.length << ",13," << r.path_time << "," << r.solvable << "," << r.wall_time << ","
-    << quoted(r.end_reason);
+    << "," << r.length << ",13," << r.path_time << ",";
+  if (old) {
+    s << oracle.solvable_collision << ",";
+  } else {
+    s << oracle.solvable << "," << oracle.solvable_collision << "," << oracle.bottleneck << ","
+      << oracle.overflight << ",";
+  }
+  s << r.wall_time << "," << quoted(r.end_reason);
   for (const std::string& stage : kStages) {
     const auto found = r.timings.find(stage);
     for (int k = 0; k < 3; ++k) {
@@ -148,7 +173,8 @@ std::vector<Row> e1Rows() {
   return rows;
 }
 
-// Seeds 0..4 at 0.1 and 0.2; seed 4 is unsolvable.
+// Seeds 0..4 at 0.1 and 0.2 (worldOracle: seed 4 is unsolvable, seed 3 at 0.2 only at the
+// collision radius).
 //   random 0.1: seeds 0-3 succeed (20, 22, 24, 26 m); 0.2: seeds 0, 1 (30, 34 m).
 //   local_exploration 0.1: seeds 1-4 succeed (15, 16, 17, 18 m); 0.2: seeds 0, 2 (25, 20 m).
 //   Both solved: 0.1 seeds 1-3 (random 24 m, local 16 m), 0.2 seed 0 (30 m, 25 m).
@@ -170,7 +196,6 @@ std::vector<Row> e2Rows() {
         r.density = density;
         r.trial = seed;
         r.seed = seed;
-        r.solvable = seed != 4;
         const auto found = by_density.find(density);
         if (found != by_density.end() && found->second.count(seed)) {
           r.success = true;
@@ -427,6 +452,18 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   EXPECT_SUCCESS(cell(e1, "0.1", "soft"), 10, 10, 100, 72, 100);
   EXPECT_EQ(cell(e1, "0.2", "soft"), "–");
 
+  // Worlds: each (scenario, density, seed) once, whichever experiments flew it (E1 and E2 share
+  // paper's seeds 0-4; the trials that could not run are no world).
+  const Table worlds = tableAfter(md, "## Worlds: what the oracle says");
+  ASSERT_EQ(worlds.size(), 5u);
+  EXPECT_EQ(worlds[1], (std::vector<std::string>{"forest50", "0.1", "2", "2", "2", "0", "1.000"}));
+  EXPECT_EQ(worlds[2][2], "2");
+  // paper 0.1, seeds 0-9: bottlenecks 0.45 0.5 0.6 0.65 0.7 0.7 0.75 0.8 0.8 0.9.
+  EXPECT_EQ(worlds[3], (std::vector<std::string>{"paper", "0.1", "10", "9", "9", "1", "0.700"}));
+  // paper 0.2: seed 3 solvable at the collision radius only.
+  EXPECT_EQ(worlds[4], (std::vector<std::string>{"paper", "0.2", "10", "8", "9", "1", "0.650"}));
+  EXPECT_EQ(md.find("Unknown here"), std::string::npos);
+
   // E2: success per method and density, collisions, success on solvable worlds, path lengths.
   const Table e2 =
       tableAfter(md, "## E2: goal-selection strategies, success per method and density");
@@ -443,16 +480,26 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   EXPECT_EQ(
       cell(per_method, "rrt_star_optimistic", "zero-collision target").rfind("not required", 0),
       0u);
-  EXPECT_EQ(cell(per_method, "random", "solvable worlds"), "8");
+  EXPECT_EQ(cell(per_method, "random", "solvable at planning radius"), "7");
+  EXPECT_EQ(cell(per_method, "random", "solvable at collision radius"), "8");
   EXPECT_SUCCESS(cell(per_method, "random", "success"), 6, 10, 60, 31, 83);
-  EXPECT_SUCCESS(cell(per_method, "local_exploration", "success on solvable worlds"), 5, 8, 63, 31,
-                 86);
+  EXPECT_SUCCESS(cell(per_method, "random", "success on solvable at planning radius"), 6, 7, 86, 49,
+                 97);
+  EXPECT_SUCCESS(cell(per_method, "random", "success on solvable at collision radius"), 6, 8, 75,
+                 41, 93);
+  EXPECT_SUCCESS(cell(per_method, "local_exploration", "success on solvable at planning radius"), 5,
+                 7, 71, 36, 92);
+  EXPECT_SUCCESS(cell(per_method, "local_exploration", "success on solvable at collision radius"),
+                 5, 8, 63, 31, 86);
   // random's successful lengths 20, 22, 24, 26, 30, 34: thicket::median takes the upper middle.
   EXPECT_EQ(cell(per_method, "random", "median path length [m]"), "26.00");
   EXPECT_EQ(cell(per_method, "local_exploration", "median path length [m]"), "18.00");
-  const Table solvable = tableAfter(md, "### Success on solvable worlds only");
-  EXPECT_SUCCESS(cell(solvable, "0.1", "local_exploration"), 3, 4, 75, 30, 95);
-  EXPECT_SUCCESS(cell(solvable, "0.1", "random"), 4, 4, 100, 51, 100);
+  const Table planning = tableAfter(md, "### Success on worlds solvable at the planning radius");
+  EXPECT_SUCCESS(cell(planning, "0.1", "local_exploration"), 3, 4, 75, 30, 95);
+  EXPECT_SUCCESS(cell(planning, "0.2", "random"), 2, 3, 67, 21, 94);
+  const Table collision = tableAfter(md, "### Success on worlds solvable at the collision radius");
+  EXPECT_SUCCESS(cell(collision, "0.1", "random"), 4, 4, 100, 51, 100);
+  EXPECT_SUCCESS(cell(collision, "0.2", "random"), 2, 4, 50, 15, 85);
 
   // E3: only the worlds both solved.
   const Table e3 = tableAfter(md, "## E3: path length, random vs local_exploration");
@@ -666,7 +713,7 @@ std::string replaceCell(const std::string& row, size_t column, const std::string
   std::string cell;
   std::istringstream s(row.substr(0, row.size() - 1));
   while (std::getline(s, cell, ',')) cells.push_back(cell);
-  cells.resize(27);  // getline drops the empty cells at the end
+  cells.resize(30);  // getline drops the empty cells at the end
   cells[column] = value;
   std::string text;
   for (size_t i = 0; i < cells.size(); ++i) text += (i ? "," : "") + cells[i];
@@ -691,7 +738,9 @@ TEST_F(BenchReport, BadTrialCellsNameLineAndColumn) {
       {15, "", "line 3, column 16 (path_length_m): '' is not a finite number"},
       {9, "2", "line 3, column 10 (success): '2' is not 0 or 1"},
       {13, "1.5", "line 3, column 14 (num_replans): '1.5' is not an integer"},
-      {26, "x", "line 3, column 27 (mapper_tsdf_insert_ms_max): 'x' is not a finite number"},
+      {29, "x", "line 3, column 30 (mapper_tsdf_insert_ms_max): 'x' is not a finite number"},
+      {20, "0.5m", "line 3, column 21 (bottleneck_m): '0.5m' is not a finite number"},
+      {21, "", "line 3, column 22 (needs_overflight): '' is not 0 or 1"},
       {4, "0.1e", "line 3, column 5 (density): '0.1e' is not a finite number"},
   };
   for (const auto& c : cases) {
@@ -710,12 +759,49 @@ TEST_F(BenchReport, RefusesMissingColumnsAndRepeatedTrials) {
   text.replace(text.find("solvable,"), 9, "solved,");
   write(out + "/trials.csv", text);
   EXPECT_EQ(writeReport(out), out + "/trials.csv: the header has no column solvable");
+  // The planning radius's oracle columns come together.
+  text = header();
+  text.replace(text.find("bottleneck_m,"), 13, "");
+  write(out + "/trials.csv", text);
+  EXPECT_EQ(writeReport(out), out + "/trials.csv: the header has no column bottleneck_m");
 
   Row r;
   write(out + "/trials.csv", header() + line(r) + line(r));
   EXPECT_EQ(
       writeReport(out),
       out + "/trials.csv line 3: trial E2/paper/d0.1/none/soft/depth/s0 is already on line 2");
+}
+
+// A trials.csv of a thicket-bench before the planning radius's oracle (docs/results has one): its
+// solvable is the collision radius's; the planning radius's columns are unknown, and said so.
+TEST_F(BenchReport, OldTrialsWithoutThePlanningOracleAreReadAsUnknown) {
+  const std::string out = tempPath("old");
+  std::string text = header(true);
+  for (const auto& rows : {e1Rows(), e2Rows()}) {
+    for (const Row& r : rows) text += line(r, true);
+  }
+  write(out + "/trials.csv", text);
+  ASSERT_EQ(writeReport(out), "");
+  const std::string md = read(out + "/summary.md");
+
+  const Table worlds = tableAfter(md, "## Worlds: what the oracle says");
+  EXPECT_EQ(worlds[2], (std::vector<std::string>{"paper", "0.2", "10", "–", "9", "–", "–"}));
+  const Table per_method = tableAfter(md, "### Per method, all densities");
+  EXPECT_EQ(cell(per_method, "random", "solvable at planning radius"), "–");
+  EXPECT_EQ(cell(per_method, "random", "success on solvable at planning radius"), "–");
+  EXPECT_EQ(cell(per_method, "random", "solvable at collision radius"), "8");
+  EXPECT_SUCCESS(cell(per_method, "random", "success on solvable at collision radius"), 6, 8, 75,
+                 41, 93);
+  EXPECT_TRUE(tableAfter(md, "### Success on worlds solvable at the planning radius").empty());
+  const Table collision = tableAfter(md, "### Success on worlds solvable at the collision radius");
+  EXPECT_SUCCESS(cell(collision, "0.2", "random"), 2, 4, 50, 15, 85);
+  // Said in the worlds section, the per-method table and the planning radius's matrix.
+  size_t notes = 0;
+  for (size_t at = md.find("Unknown here: this trials.csv has no column solvable_collision_radius");
+       at != std::string::npos; at = md.find("Unknown here", at + 1)) {
+    ++notes;
+  }
+  EXPECT_EQ(notes, 3u);
 }
 
 TEST_F(BenchReport, BadRunLogIsReportedButTheSummaryWritten) {

@@ -86,6 +86,10 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
   EXPECT_NE(result.output.find("trial 0/2 seed 7: "), std::string::npos) << result.output;
   EXPECT_NE(result.output.find("trial 1/2 seed 8: "), std::string::npos) << result.output;
   EXPECT_NE(result.output.find("collisions 0"), std::string::npos) << result.output;
+  EXPECT_NE(result.output.find("solvable at the planning radius 2/2 (success on them 2/2, 0 need "
+                               "overflight), at the collision radius 2/2 (success on them 2/2)"),
+            std::string::npos)
+      << result.output;
 
   const Table rows = readCsv(out + "/trials.csv");
   ASSERT_EQ(rows.size(), 3u);
@@ -106,6 +110,9 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
                                                   "straight_line_m",
                                                   "path_time_s",
                                                   "solvable",
+                                                  "solvable_collision_radius",
+                                                  "bottleneck_m",
+                                                  "needs_overflight",
                                                   "wall_time_s",
                                                   "end_reason"};
   const std::vector<std::string>& header = rows[0];
@@ -138,6 +145,10 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
     EXPECT_EQ(cell["success"], "1");
     EXPECT_EQ(cell["end_reason"], "goal reached");
     EXPECT_EQ(cell["solvable"], "1");
+    EXPECT_EQ(cell["solvable_collision_radius"], "1");
+    // Solvable at the planning radius without overflight: the bottleneck is at least 0.6 m.
+    EXPECT_EQ(cell["needs_overflight"], "0");
+    EXPECT_GE(std::stod(cell["bottleneck_m"]), 0.6);
     EXPECT_EQ(cell["feasible"], "1");
     EXPECT_GE(std::stod(cell["min_clearance_m"]), 0.5);
     EXPECT_LE(std::stoi(cell["num_replans"]), 40);

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "csv.h"
+#include "trials.h"
 
 namespace thicket::bench {
 namespace {
@@ -88,6 +89,30 @@ TEST(BenchSmoke, ConservativeStrategiesNeverCollideAndSuccessEndsAtTheGoal) {
   }
 }
 
+// The oracle demands more at the planning radius than at the collision radius; overflight is
+// needed only where the bottleneck is narrower than the planning radius.
+TEST(BenchSmoke, TheOracleColumnsAgree) {
+  const auto loco =
+      trialGraphOptions("none", "soft", 0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones())
+          .planner.planner.loco;
+  const double planning_radius = loco.robot_radius + loco.clearance_margin;
+  for (const auto& row : trials()) {
+    const std::string what = row.at("experiment") + " " + row.at("method") + " " +
+                             row.at("goal_finding") + " s" + row.at("seed");
+    const double bottleneck = number(row.at("bottleneck_m"));
+    EXPECT_GE(bottleneck, 0.0) << what;
+    if (row.at("solvable") == "1") {
+      EXPECT_EQ(row.at("solvable_collision_radius"), "1") << what;
+    }
+    if (row.at("needs_overflight") == "1") {
+      EXPECT_EQ(row.at("solvable"), "1") << what;
+      EXPECT_LT(bottleneck, planning_radius) << what;
+    } else if (row.at("solvable") == "1") {
+      EXPECT_GE(bottleneck, planning_radius - 1e-4) << what;  // trials.csv has 4 decimals
+    }
+  }
+}
+
 TEST(BenchSmoke, EveryTrialHasItsPathFromStartToEnd) {
   int paths = 0;
   for (const auto& entry : fs::directory_iterator(kDir / "paths")) {
@@ -120,7 +145,9 @@ TEST(BenchSmoke, TheSubsamplingTableHasTheExactGainAtFractionOne) {
 
 TEST(BenchSmoke, TheSummaryHasEveryExperimentAndTheFiguresArePngs) {
   const std::string summary = fileText(kDir / "summary.md");
-  for (const char* heading : {"## E1:", "## E2:", "## E4:", "## T1:", "## E5:"}) {
+  for (const char* heading : {"## Worlds:", "## E1:", "## E2:", "## E4:", "## T1:", "## E5:",
+                              "### Success on worlds solvable at the planning radius",
+                              "### Success on worlds solvable at the collision radius"}) {
     EXPECT_NE(summary.find(heading), std::string::npos) << heading << " missing";
   }
   EXPECT_EQ(summary.find("## Problems"), std::string::npos) << summary;

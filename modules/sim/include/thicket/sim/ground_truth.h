@@ -1,9 +1,8 @@
-// Exact distances to a World's obstacles, for collision checks and clearance metrics, and the
-// solvability oracle that says whether a trial could have succeeded at all (BENCHMARK.md).
+// Exact distances to a World's obstacles, for collision checks, clearance metrics and the
+// solvability oracle (oracle.h).
 #pragma once
 
 #include <cstddef>
-#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -52,37 +51,5 @@ class GroundTruth {
 /// Signed distance from p to the surface of one cylinder alone, as GroundTruth::distance measures
 /// it (the cylinder extends below the ground, which hides it there): for per-obstacle clearances.
 double cylinderDistance(const Cylinder& cylinder, const Eigen::Vector3d& p);
-
-/// How checkSolvable searches.
-struct OracleOptions {
-  /// Edge of the xy grid cells searched [m]. Finer finds narrower passages and costs
-  /// quadratically more (forest50 at 0.05 m: 1000 × 1000 cells).
-  double resolution = 0.05;
-};
-
-struct OracleResult {
-  bool solvable = false;
-  /// Length of `path` [m]; 0 when unsolvable.
-  double path_length = 0.0;
-  /// A collision-free path from start to goal, for debugging: up from the start to one flight
-  /// altitude, along the shortest 8-connected path of grid cell centres, down to the goal.
-  std::vector<Eigen::Vector3d> path;
-  /// Why the world is unsolvable; empty when solvable.
-  std::string reason;
-};
-
-/// Whether a sphere of the world's robot_radius can get from start to goal, keeping its centre in
-/// z ∈ [r, bounds_max.z − r] and its surface inside the walls.
-///
-/// Every obstacle rises from the ground, so the free altitudes above a point (x, y) form a single
-/// interval [lo(x, y), bounds_max.z − r]: raising a free sphere never brings it closer to a
-/// cylinder or the ground. Two free neighbouring columns therefore connect through their tops,
-/// and the 3D question is 2D connectivity of the columns whose interval is not empty. The search
-/// runs on a grid of cells, blocking a cell when any point of it might be too close (its centre's
-/// clearance minus half the cell diagonal), so the answer is conservative: "solvable" is always
-/// truly solvable, but passages less than about 2·r + 3·resolution wide may be missed. Start or
-/// goal in collision or outside the altitude band is unsolvable with a reason. Throws
-/// std::invalid_argument for a non-positive resolution or one giving more than 10^8 cells.
-OracleResult checkSolvable(const GroundTruth& ground_truth, const OracleOptions& options = {});
 
 }  // namespace thicket::sim
