@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "csv.h"
 #include "flags.h"
 #include "thicket/common/esdf_query.h"
 #include "thicket/common/random.h"
@@ -268,6 +269,7 @@ struct Config {
 struct Measured {
   ErrorHistogram voxels;
   ErrorHistogram points;
+  ErrorHistogram margin;
   int frames = 0;
 };
 
@@ -356,7 +358,9 @@ Measured measure(const ClearanceOptions& options, const Flight& flight, const Co
       if (!s.known || !observedAround(tsdf, p)) continue;
       const double d = truth.distance(p);
       if (!(d > 0 && d <= near)) continue;
-      measured.points.add(s.distance - d, [&] { return place(flight, k, p, s.distance, d); });
+      const auto where = [&] { return place(flight, k, p, s.distance, d); };
+      measured.points.add(s.distance - d, where);
+      if (d < options.robot_radius) measured.margin.add(s.distance - options.robot_radius, where);
     }
   }
   return measured;
@@ -376,30 +380,35 @@ void parallelFor(int n, int jobs, const std::function<void(int)>& f) {
 std::string csvText(const std::vector<ClearanceRow>& rows) {
   std::string text =
       "scenario,density,voxel_size,noise,variant,flights,frames,voxels,voxel_mean,voxel_p99,"
-      "voxel_p999,voxel_max,points,point_mean,point_p99,point_p999,point_max,worst_voxel,"
-      "worst_point\n";
+      "voxel_p999,voxel_max,points,point_mean,point_p99,point_p999,point_max,colliding_points,"
+      "margin_p999,margin_max,worst_voxel,worst_point,worst_margin\n";
   for (const ClearanceRow& r : rows) {
     char line[512];
     std::snprintf(line, sizeof(line),
-                  "%s,%g,%g,%g,%s,%d,%d,%lld,%.4f,%.4f,%.4f,%.4f,%lld,%.4f,%.4f,%.4f,%.4f,",
+                  "%s,%g,%g,%g,%s,%d,%d,%lld,%.4f,%.4f,%.4f,%.4f,%lld,%.4f,%.4f,%.4f,%.4f,%lld,"
+                  "%.4f,%.4f,",
                   r.scenario.c_str(), r.density, r.voxel_size, r.noise, r.variant.c_str(),
                   r.flights, r.frames, static_cast<long long>(r.voxels.count), r.voxels.mean,
                   r.voxels.p99, r.voxels.p999, r.voxels.max, static_cast<long long>(r.points.count),
-                  r.points.mean, r.points.p99, r.points.p999, r.points.max);
-    text += line + ("\"" + r.voxels.worst + "\",\"" + r.points.worst + "\"\n");
+                  r.points.mean, r.points.p99, r.points.p999, r.points.max,
+                  static_cast<long long>(r.margin.count), r.margin.p999, r.margin.max);
+    text += line + csvCell(r.voxels.worst) + "," + csvCell(r.points.worst) + "," +
+            csvCell(r.margin.worst) + "\n";
   }
   return text;
 }
 
 void printTable(const std::vector<ClearanceRow>& rows) {
-  std::printf("%-9s %5s %5s %6s %-14s %6s | %9s %7s %7s %7s | %9s %7s %7s %7s\n", "scenario",
-              "dens", "voxel", "noise", "variant", "frames", "voxels", "p99", "p99.9", "max",
-              "points", "p99", "p99.9", "max");
+  std::printf("%-9s %5s %5s %6s %-15s %6s | %8s %6s %6s | %8s %6s %6s %6s | %7s %6s\n", "scenario",
+              "dens", "voxel", "noise", "variant", "frames", "voxels", "p99.9", "max", "points",
+              "p99", "p99.9", "max", "in coll", "margin");
   for (const ClearanceRow& r : rows) {
-    std::printf("%-9s %5g %5g %6g %-14s %6d | %9lld %7.3f %7.3f %7.3f | %9lld %7.3f %7.3f %7.3f\n",
-                r.scenario.c_str(), r.density, r.voxel_size, r.noise, r.variant.c_str(), r.frames,
-                static_cast<long long>(r.voxels.count), r.voxels.p99, r.voxels.p999, r.voxels.max,
-                static_cast<long long>(r.points.count), r.points.p99, r.points.p999, r.points.max);
+    std::printf(
+        "%-9s %5g %5g %6g %-15s %6d | %8lld %6.3f %6.3f | %8lld %6.3f %6.3f %6.3f | %7lld %6.3f\n",
+        r.scenario.c_str(), r.density, r.voxel_size, r.noise, r.variant.c_str(), r.frames,
+        static_cast<long long>(r.voxels.count), r.voxels.p999, r.voxels.max,
+        static_cast<long long>(r.points.count), r.points.p99, r.points.p999, r.points.max,
+        static_cast<long long>(r.margin.count), r.margin.max);
   }
   for (const ClearanceRow& r : rows) {
     std::printf("worst point %s %g %g %s: %s\n", r.scenario.c_str(), r.voxel_size, r.noise,
@@ -478,6 +487,7 @@ std::vector<ClearanceRow> measureClearance(const ClearanceOptions& options) {
                      c];
         total.voxels.merge(m.voxels);
         total.points.merge(m.points);
+        total.margin.merge(m.margin);
         total.frames += m.frames;
       }
       ClearanceRow row;
@@ -490,6 +500,7 @@ std::vector<ClearanceRow> measureClearance(const ClearanceOptions& options) {
       row.frames = total.frames;
       row.voxels = total.voxels.summary();
       row.points = total.points.summary();
+      row.margin = total.margin.summary();
       rows.push_back(row);
     }
   }

@@ -15,9 +15,10 @@
 //   interpolated ESDF
 //     is known and the 8 voxels around them were observed by the TSDF (the take-off sphere's free
 //     space is assumed, not mapped): the error is the interpolated distance − the true distance,
-//     what the planner's acceptance test reads. Its maximum B is the bound the acceptance margin
-//     has to cover: a sample in collision (true distance < robot radius) then reads less than
-//     robot radius + B.
+//     what the planner's acceptance test reads. Its maximum B bounds the overestimate: a sample in
+//     collision (true distance < robot radius) reads less than robot radius + B;
+//   - margin: of those points, the ones in collision: interpolated distance − robot radius. Its
+//     maximum M <= B is the smallest acceptance margin that refuses every one of them.
 // Writes DIR/clearance.csv (one row per configuration) and prints the table; the worst point of
 // each configuration is named (world, frame, position) so that it can be looked at.
 #pragma once
@@ -88,6 +89,9 @@ struct ClearanceRow {
   int frames = 0;
   ErrorSummary voxels;
   ErrorSummary points;
+  /// The points in collision (true distance < robot_radius): interpolated ESDF − robot_radius. Its
+  /// maximum is the smallest clearance margin that refuses every one of them.
+  ErrorSummary margin;
 };
 
 Expected<ClearanceOptions> parseClearanceOptions(const std::vector<std::string>& args);

@@ -226,29 +226,15 @@ sim::SimOptions simOptions(const RunOptions& options, const sim::World& world) {
   return sim;
 }
 
-// With the stereo sensor, the depth node for the simulator's pairs: they arrive rectified, so the
-// node takes the rendered camera's intrinsics, baseline and mount.
-std::unique_ptr<Node> stereoDepthNode(lcm::LCM& lcm, const RunOptions& options,
-                                      const sim::SimOptions& sim, const sim::World& world) {
+// With the stereo sensor, the depth node for the simulator's pairs, with the options the stereo
+// sheet gives it (config/sim/stereo_depth.yaml: the rendered pair's rectified camera).
+std::unique_ptr<Node> stereoDepthNode(lcm::LCM& lcm, const RunOptions& options) {
   if (options.sensor != "stereo") return nullptr;
-  const sim::StereoRenderer renderer(world, sim.stereo_camera);
-  const PinholeCamera camera = renderer.camera();
-  stereo_depth::StereoDepthNodeOptions node;
-  stereo_depth::RectifiedCameraOptions& rectified = node.stereo.rectified;
-  rectified.width = camera.width;
-  rectified.height = camera.height;
-  rectified.fx = camera.fx;
-  rectified.fy = camera.fy;
-  rectified.cx = camera.cx;
-  rectified.cy = camera.cy;
-  rectified.baseline = renderer.baseline();
-  node.camera_position_in_body = sim.stereo_camera.position_in_body;
-  node.camera_pitch_down_deg = sim.stereo_camera.pitch_down_deg;
-  return std::make_unique<stereo_depth::StereoDepthNode>(lcm, node, steadyClockMillis);
+  return std::make_unique<stereo_depth::StereoDepthNode>(
+      lcm, loadParams<stereo_depth::StereoDepthNodeOptions>(simConfigDir() + "/stereo_depth.yaml"),
+      steadyClockMillis);
 }
 
-// The oracle's columns: at the planning radius (the clearance the planner accepts samples with)
-// and at the collision radius (the world's robot radius, which collisions are judged by).
 void checkOracle(const sim::World& world, const local_planner::LocalPlannerNodeOptions& planner,
                  TrialResult& result) {
   const sim::GroundTruth truth(world);
@@ -290,8 +276,9 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   result.trial = trial;
   result.seed = world.seed;
   result.straight_line_m = (world.goal - world.start).norm();
-  const TrialGraphOptions graph = trialGraphOptions(options.method, options.goal_finding,
-                                                    world.seed, world.bounds_min, world.bounds_max);
+  const TrialGraphOptions graph =
+      trialGraphOptions(options.method, options.goal_finding, world.seed, world.bounds_min,
+                        world.bounds_max, world.robot_radius);
   checkOracle(world, graph.planner, result);
 
   const auto started = std::chrono::steady_clock::now();
@@ -301,9 +288,9 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   BenchNode bench(lcm);
   const sim::SimOptions sim_options = simOptions(options, world);
   sim::SimNode sim(lcm, sim_options, world);
-  const std::unique_ptr<Node> stereo = stereoDepthNode(lcm, options, sim_options, world);
+  const std::unique_ptr<Node> stereo = stereoDepthNode(lcm, options);
   vio_bridge::VioBridgeNode bridge(lcm, graph.bridge, steadyClockMillis);
-  mapper::MapperNode mapper(lcm, graph.mapper, graph.map_id, steadyClockMillis);
+  mapper::MapperNode mapper(lcm, graph.mapper, graph.mapper.map_id, steadyClockMillis);
   std::unique_ptr<Node> explorer;
   if (graph.explorer) {
     explorer = std::make_unique<explorer::ExplorerNode>(lcm, *graph.explorer, steadyClockMillis);
@@ -351,30 +338,38 @@ bool conservativeMethod(const std::string& method) {
   return method != "rrt_star_optimistic";
 }
 
+std::string simConfigDir() {
+  return std::string(THICKET_SOURCE_DIR) + "/config/sim";
+}
+
 TrialGraphOptions trialGraphOptions(const std::string& method, const std::string& goal_finding,
                                     uint64_t seed, const Eigen::Vector3d& bounds_min,
-                                    const Eigen::Vector3d& bounds_max) {
+                                    const Eigen::Vector3d& bounds_max, double robot_radius) {
   const Method& strategy = findRow(kMethods, method, "method");
   const GoalFinding& variant = findRow(kGoalFindings, goal_finding, "goal finding");
+  const std::string dir = simConfigDir();
   TrialGraphOptions graph;
-  graph.map_id = static_cast<int64_t>(seed) + 1;
+  graph.bridge = loadParams<vio_bridge::VioBridgeNodeOptions>(dir + "/vio_bridge.yaml");
+  graph.mapper = loadParams<mapper::MapperNodeOptions>(dir + "/mapper.yaml");
+  graph.mapper.map_id = static_cast<int64_t>(seed) + 1;
+  const Eigen::Vector3d volume_min = (bounds_min.array() + robot_radius).matrix();
+  const Eigen::Vector3d volume_max = (bounds_max.array() - robot_radius).matrix();
   if (strategy.strategy != nullptr) {
-    explorer::ExplorerNodeOptions explorer;
+    explorer::ExplorerNodeOptions explorer =
+        loadParams<explorer::ExplorerNodeOptions>(dir + "/explorer.yaml");
     explorer.explorer.strategy = strategy.strategy;
     explorer.explorer.seed = static_cast<int64_t>(seed);
-    explorer.explorer.flight_volume_min = bounds_min;
-    explorer.explorer.flight_volume_max = bounds_max;
+    explorer.explorer.flight_volume_min = volume_min;
+    explorer.explorer.flight_volume_max = volume_max;
     graph.explorer = explorer;
   }
   local_planner::LocalPlannerNodeOptions& node = graph.planner;
-  // Every ESDF revision triggers a cycle; no timers run in the composite.
-  node.replan_rate = 0;
-  node.setpoint_rate = 0;
+  node = loadParams<local_planner::LocalPlannerNodeOptions>(dir + "/local_planner.yaml");
   node.planner.goal_finder.method = variant.finder_method;
   node.planner.soft_goal = variant.soft_goal;
   node.planner.seed = static_cast<int64_t>(seed);
-  node.planner.flight_volume_min = bounds_min;
-  node.planner.flight_volume_max = bounds_max;
+  node.planner.flight_volume_min = volume_min;
+  node.planner.flight_volume_max = volume_max;
   node.planner.use_explorer = graph.explorer.has_value();
   return graph;
 }

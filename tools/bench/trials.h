@@ -107,22 +107,29 @@ bool conservativeMethod(const std::string& method);
 /// The options of a trial's nodes besides the simulator's: what a trial builds and what the
 /// replay of a recorded trial (tools/replay) must build alike.
 struct TrialGraphOptions {
-  vio_bridge::VioBridgeNodeOptions bridge;  ///< defaults: the simulator's odometry is in
-                                            ///< thicket's frames, the bridge only gates it
+  vio_bridge::VioBridgeNodeOptions bridge;
   mapper::MapperNodeOptions mapper;
-  int64_t map_id = 0;
   /// Absent for the method "none": no explorer in the graph.
   std::optional<explorer::ExplorerNodeOptions> explorer;
   local_planner::LocalPlannerNodeOptions planner;
 };
 
-/// The graph of a trial of `method` with `goal_finding` on the world of `seed` with the flight
-/// volume [bounds_min, bounds_max]: everything seeded by the world and confined to its volume,
-/// one planner cycle per ESDF revision (no timers). Throws std::invalid_argument naming an
-/// unknown method or goal finding.
+/// Where the simulated graph's option files live: `<dir>/<module>.yaml` for vio_bridge, mapper,
+/// local_planner and explorer. The process sheets (config/sim*.pmd) pass the same files to the
+/// executables, so the benchmark flies what the sheets run: the source tree's config/sim.
+std::string simConfigDir();
+
+/// The graph of a trial of `method` with `goal_finding` on the world of `seed` inside
+/// [bounds_min, bounds_max] flown by a robot of `robot_radius`: every module's options are loaded
+/// from simConfigDir(), then the trial sets what is its own: the explorer's strategy (none: no
+/// explorer, and the planner holds when stuck), the goal finding, the seeds of the planner and
+/// the explorer (the world's), the map id (seed + 1) and the flight volume of the planner and the
+/// explorer (the world's bounds shrunk by the robot radius, where the oracle keeps the centre).
+/// Throws std::invalid_argument naming an unknown method or goal finding, thicket::ParamError
+/// when a file does not load.
 TrialGraphOptions trialGraphOptions(const std::string& method, const std::string& goal_finding,
                                     uint64_t seed, const Eigen::Vector3d& bounds_min,
-                                    const Eigen::Vector3d& bounds_max);
+                                    const Eigen::Vector3d& bounds_max, double robot_radius);
 
 // ---- trials.csv, shared by `thicket-bench run` and `thicket-bench experiment` ----
 

@@ -37,8 +37,8 @@ Expected<GraphOptions> trialGraphOptions(const sim_world_t& world, const std::st
   const Eigen::Vector3d bounds_max(world.bounds_max[0], world.bounds_max[1], world.bounds_max[2]);
   try {
     return bench::trialGraphOptions(method, "soft", static_cast<uint64_t>(world.seed), bounds_min,
-                                    bounds_max);
-  } catch (const std::invalid_argument& e) {
+                                    bounds_max, world.robot_radius);
+  } catch (const std::exception& e) {
     return unexpected(e.what());
   }
 }
@@ -129,7 +129,7 @@ class Router {
     islands_.push_back(std::make_unique<Island>(module("vio_bridge")));
     islands_.back()->host<vio_bridge::VioBridgeNode>(options.bridge, steadyClockMillis);
     islands_.push_back(std::make_unique<Island>(module("mapper")));
-    islands_.back()->host<mapper::MapperNode>(options.mapper, options.map_id, steadyClockMillis);
+    islands_.back()->host<mapper::MapperNode>(options.mapper, options.mapper.map_id, steadyClockMillis);
     if (options.explorer) {
       islands_.push_back(std::make_unique<Island>(module("explorer")));
       islands_.back()->host<explorer::ExplorerNode>(*options.explorer, steadyClockMillis);

@@ -93,7 +93,7 @@ TEST(BenchSmoke, ConservativeStrategiesNeverCollideAndSuccessEndsAtTheGoal) {
 // needed only where the bottleneck is narrower than the planning radius.
 TEST(BenchSmoke, TheOracleColumnsAgree) {
   const auto loco =
-      trialGraphOptions("none", "soft", 0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones())
+      trialGraphOptions("none", "soft", 0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Ones(), 0.1)
           .planner.planner.loco;
   const double planning_radius = loco.robot_radius + loco.clearance_margin;
   for (const auto& row : trials()) {

@@ -163,13 +163,19 @@ Options loadParams(const std::string& path) {
   return loadParamsFromString<Options>(detail::readFile(path), path);
 }
 
-/// Every parameter of Options with its default, as YAML with the documentation in comments.
-/// Loading this text back gives the defaults.
+/// Every parameter of `options` with its value, as YAML with the documentation in comments.
+/// Loading this text back gives `options`; two options structs run alike exactly when their texts
+/// are equal.
+template <class Options>
+std::string describeParams(const Options& options) {
+  Options copy = options;
+  return detail::describe(&copy, [](void* o, Params& p) { static_cast<Options*>(o)->declare(p); });
+}
+
+/// Every parameter of Options with its default (what `thicket-<module> params` prints).
 template <class Options>
 std::string describeParams() {
-  Options options;
-  return detail::describe(&options,
-                          [](void* o, Params& p) { static_cast<Options*>(o)->declare(p); });
+  return describeParams(Options{});
 }
 
 }  // namespace thicket
