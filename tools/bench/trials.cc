@@ -365,6 +365,11 @@ TrialGraphOptions trialGraphOptions(const std::string& method, const std::string
   }
   local_planner::LocalPlannerNodeOptions& node = graph.planner;
   node = loadParams<local_planner::LocalPlannerNodeOptions>(dir + "/local_planner.yaml");
+  if (graph.explorer) {
+    // The explorer proposes, and its trees keep, the clearance the planner accepts.
+    graph.explorer->explorer.min_clearance =
+        node.planner.loco.robot_radius + node.planner.loco.clearance_margin;
+  }
   node.planner.goal_finder.method = variant.finder_method;
   node.planner.soft_goal = variant.soft_goal;
   node.planner.seed = static_cast<int64_t>(seed);

@@ -192,6 +192,37 @@ void LocalPlanner::reportStop(CycleReport& report) {
   }
 }
 
+std::optional<std::string> LocalPlanner::optimizeToward(const SplineEnds& ends, bool free_end,
+                                                        const Eigen::Vector3d& target,
+                                                        const DistanceField& field,
+                                                        CycleReport& report) {
+  // Every optimization of a cycle draws its restarts from its own seed: a second attempt at the
+  // same goal in the same cycle (an explorer that proposes the goal that just failed) must not
+  // repeat the first bit for bit.
+  const int attempt = report.attempts++;
+  const uint64_t cycle_seed = mixSeed(options_.seed, report.cycle);
+  report.loco =
+      loco_.solve(ends, free_end, field,
+                  attempt == 0 ? cycle_seed : mixSeed(static_cast<int64_t>(cycle_seed), attempt));
+  if (!report.loco.accepted) {
+    return format("no acceptable trajectory toward (%.2f, %.2f, %.2f): ", target.x(), target.y(),
+                  target.z()) +
+           report.loco.reason;
+  }
+  // A plan that ends at the horizon goal or at the waypoint itself is progress, however short.
+  const Eigen::Vector3d& horizon_goal = ends.end_position;
+  const double start_gap = (horizon_goal - ends.start_position).norm();
+  const double end_gap = (horizon_goal - report.loco.end_position).norm();
+  const double target_gap = (target - report.loco.end_position).norm();
+  if (end_gap > options_.goal_tolerance && target_gap > options_.goal_tolerance &&
+      end_gap > start_gap - options_.min_progress) {
+    return format("no progress toward (%.2f, %.2f, %.2f): ", target.x(), target.y(), target.z()) +
+           format("the best trajectory ends %.2f m from the horizon goal, %.2f m at the start",
+                  end_gap, start_gap);
+  }
+  return std::nullopt;
+}
+
 bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
                               CycleReport& report) {
   const Eigen::Vector3d& target = goal.waypoints[waypoint];
@@ -213,23 +244,17 @@ bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceF
   ends.start_velocity = report.start.velocity;
   ends.start_acceleration = report.start.acceleration;
   ends.end_position = found.position;
-  report.loco = loco_.solve(ends, options_.soft_goal, field, mixSeed(options_.seed, report.cycle));
-  report.solve_ms += now_ms_() - t0;
-  if (!report.loco.accepted) {
-    report.reason = format("no acceptable trajectory toward (%.2f, %.2f, %.2f): ", target.x(),
-                           target.y(), target.z()) +
-                    report.loco.reason;
-    return false;
+  std::optional<std::string> refused =
+      optimizeToward(ends, options_.soft_goal, target, field, report);
+  // The final approach: when the horizon goal is the waypoint itself and free, a refused soft
+  // plan (its end balanced against the collision potential short of a waypoint near obstacles,
+  // every cycle the same) is followed by one whose end is fixed at the waypoint.
+  if (refused && options_.soft_goal && found.free && found.position == target) {
+    refused = optimizeToward(ends, /*free_end=*/false, target, field, report);
   }
-  const double start_gap = (found.position - report.start.position).norm();
-  const double end_gap = (found.position - report.loco.end_position).norm();
-  if (end_gap > options_.goal_tolerance && end_gap > start_gap - options_.min_progress) {
-    report.reason =
-        format("no progress toward (%.2f, %.2f, %.2f): ", target.x(), target.y(), target.z()) +
-        format(
-            "the best trajectory ends %.2f m from the horizon goal, %.2f m at the "
-            "start",
-            end_gap, start_gap);
+  report.solve_ms += now_ms_() - t0;
+  if (refused) {
+    report.reason = *refused;
     return false;
   }
   auto trajectory = PolynomialTrajectory::create(report.utime, report.loco.segments);

@@ -68,7 +68,9 @@ void LocoOptions::declare(Params& p) {
     "time step of the collision integral [s] (acceptance checks every 0.02 s)",
     Range::between(0.001, 1));
   p("clearance_margin", clearance_margin,
-    "accepted samples need ESDF distance >= robot_radius + this [m]", Range::atLeast(0));
+    "accepted samples need ESDF distance >= robot_radius + this: the mapper's certified "
+    "overestimate plus the dip between 0.02 s samples [m]",
+    Range::atLeast(0));
   p("v_max", v_max, "[m/s]", Range::positive());
   p("a_max", a_max, "[m/s^2]", Range::positive());
   p("segments", segments, "polynomial segments per trajectory", Range::between(1, 10));

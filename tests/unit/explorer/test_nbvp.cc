@@ -205,6 +205,7 @@ TEST(Nbvp, BranchValueSumsTheDecayedVisibleGainsOfItsNodes) {
 TEST(Nbvp, LargeLambdaPrefersTheNearSmallGainToTheFarLargeOne) {
   ExplorerOptions o = optionsFor("nbvp");
   o.max_draws = 100000;  // the band the tree lives in is thin: most draws steer out of it
+  o.min_clearance = 0.6;  // the corridor is 2 m wide: a wider clearance leaves the tree no room
   o.nbvp.initial_nodes = o.nbvp.max_nodes = 100;
   const HandMap map = corridor();
   constexpr double kLarge = 5;

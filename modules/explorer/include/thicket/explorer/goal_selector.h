@@ -95,8 +95,10 @@ struct ExplorerOptions {
   double w_e = 1.0;     ///< weight of the exploration gain
   double w_g = 0.5;     ///< weight of the progress toward the goal
   double p_goal = 0.5;  ///< P_g: probability of proposing the global goal
-  /// Candidates must be this far from obstacles in the ESDF, so the planner can end there [m].
-  double min_clearance = 0.6;
+  /// Candidates must be this far from obstacles in the ESDF, so the planner can end there, and
+  /// the RRT* and NBVP trees keep it: the planner's acceptance, robot radius + clearance margin
+  /// (local_planner's LocoOptions) [m].
+  double min_clearance = 0.69;
   /// local_exploration: candidates must be reachable from the start along a straight line that
   /// keeps the clearance RRT* and NBVP trees keep (treeClearance).
   bool reachable = false;

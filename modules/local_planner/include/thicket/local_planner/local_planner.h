@@ -75,6 +75,7 @@ struct CycleReport {
   /// empty when it passed (or nothing was committed).
   std::string blocked;
   LocoResult loco;      ///< the last optimization of the cycle (empty if none ran)
+  int attempts = 0;     ///< optimizations the cycle ran (each seeds its restarts apart)
   double solve_ms = 0;  ///< wall-clock time of goal finding and optimization (measured)
   /// A trajectory committed by this cycle, to publish; absent when the committed one stands.
   std::optional<PolynomialTrajectory> trajectory;
@@ -157,6 +158,11 @@ class LocalPlanner {
   void recheck(const DistanceField& field, CycleReport& report);
   // The state and reason of a cycle that ends on a stop committed by recheck().
   static void reportStop(CycleReport& report);
+  // One optimization from `ends` toward `target` (the waypoint; ends.end_position is its horizon
+  // goal), its result in report.loco: why it is refused (not accepted, or no progress), or nothing.
+  std::optional<std::string> optimizeToward(const SplineEnds& ends, bool free_end,
+                                            const Eigen::Vector3d& target,
+                                            const DistanceField& field, CycleReport& report);
   // Plans toward the current waypoint of the tracked goal on the (fenced) field; fills the report,
   // commits on success.
   bool planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
