@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "analytic_fields.h"
+#include "thicket/local_planner/stop.h"
 
 namespace thicket::local_planner {
 
@@ -749,6 +750,182 @@ TEST(LocalPlanner, ACancelWhileWaitingClosesTheCycleWithoutFlyingToTheAnswer) {
   EXPECT_FALSE(pilot.planner.intermediateGoal());
   ASSERT_TRUE(pilot.planner.committed());
   EXPECT_TRUE(sameSegments(*pilot.planner.committed(), *before));
+}
+
+// ---- the re-check of the committed trajectory ----
+
+TEST(LocalPlanner, AnUnchangedMapNeverBlocksTheCommittedTrajectory) {
+  // Past a cylinder just off the line, so that trajectories pass close to the clearance the
+  // acceptance test asks for: a re-check on other sample times than the acceptance test's would
+  // find points between them nearer than that.
+  const DistanceField field = cylinderField({4.5, 0.15}, 0.5);
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  CycleReport last;
+  for (int k = 0; k < 60; ++k) {
+    last = pilot.cycle(field);
+    EXPECT_TRUE(last.blocked.empty()) << "cycle " << last.cycle << ": " << last.blocked;
+    if (last.state != CycleState::kPlanned) break;
+  }
+  EXPECT_EQ(last.state, CycleState::kGoalReached) << last.reason;
+}
+
+// A wall that appears across the whole way (y and z far beyond the flight) once the vehicle is
+// flying: its clearance margin begins `gap` beyond where the hardest stop from the reference comes
+// to rest (before it when negative).
+struct NewWall {
+  DistanceField field;
+  double face = 0;  ///< x of the near face [m]
+};
+
+// Plans toward kMission in free space, then returns the wall the pilot's next cycle will see.
+NewWall wallAfterTakeOff(Pilot& pilot, double gap) {
+  const CycleReport first = pilot.cycle(freeSpace());
+  EXPECT_EQ(first.state, CycleState::kPlanned) << first.reason;
+  const LocoOptions& o = pilot.planner.options().loco;
+  const TrajectoryState reference = pilot.planner.committed()->stateAtUtime(pilot.t);
+  EXPECT_GT(reference.velocity.x(), 0.1);  // flying toward it
+  const double stop = planStop(pilot.t, reference, freeSpace(), o).distance;
+  const double face = reference.position.x() + stop + o.robot_radius + o.clearance_margin + gap;
+  return {boxesField({boxFromCorners({face, -50, -50}, {face + 1, 50, 150})}), face};
+}
+
+// The cycle's trajectory is a stop: from the reference (Pilot::check) to rest.
+void expectStop(const CycleReport& report) {
+  ASSERT_TRUE(report.trajectory);
+  const PolynomialTrajectory& stop = *report.trajectory;
+  EXPECT_LT(stop.evaluate(stop.duration() - 1e-12, 1).norm(), 1e-8);
+  EXPECT_LT(stop.evaluate(stop.duration() - 1e-12, 2).norm(), 1e-8);
+}
+
+TEST(LocalPlanner, AWallAcrossTheCommittedTrajectoryStopsTheVehicle) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const NewWall wall = wallAfterTakeOff(pilot, 0.15);
+  const LocoOptions& o = pilot.planner.options().loco;
+
+  const CycleReport stopping = pilot.cycle(wall.field);
+  ASSERT_EQ(stopping.state, CycleState::kStopping) << stopping.reason;
+  EXPECT_TRUE(stopping.is_final);
+  EXPECT_TRUE(contains(stopping.blocked, "the committed trajectory is blocked (sample at t="))
+      << stopping.blocked;
+  EXPECT_TRUE(contains(stopping.blocked, "in certified free space")) << stopping.blocked;
+  EXPECT_FALSE(contains(stopping.blocked, "no stop")) << stopping.blocked;
+  EXPECT_TRUE(contains(stopping.reason, stopping.blocked)) << stopping.reason;
+  expectStop(stopping);
+  ASSERT_TRUE(stopping.trajectory);
+  // Certified: flown, it keeps the clearance the acceptance asks for from the new wall.
+  const testing::TrajectoryReport flown = inspectTrajectory(*stopping.trajectory, wall.field, 0.01);
+  EXPECT_GE(flown.min_distance, o.robot_radius + o.clearance_margin)
+      << "at t = " << flown.min_distance_time << " s";
+
+  // It stays there: the stop passes the re-check, and nothing gets nearer the wall.
+  const Eigen::Vector3d rest = stopping.trajectory->evaluate(stopping.trajectory->duration());
+  for (int k = 0; k < 3; ++k) {
+    const CycleReport next = pilot.cycle(wall.field);
+    EXPECT_EQ(next.state, CycleState::kStuck) << next.reason;
+    EXPECT_TRUE(next.blocked.empty()) << next.blocked;
+    EXPECT_LT((pilot.estimate().position - rest).norm(), 1e-9) << "cycle " << next.cycle;
+  }
+}
+
+TEST(LocalPlanner, AWallTooNearForACertifiedStopTakesTheHardestStop) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  // The hardest stop ends 8 cm inside the margin (still beyond the robot radius).
+  const NewWall wall = wallAfterTakeOff(pilot, -0.08);
+
+  const CycleReport stopping = pilot.cycle(wall.field);
+  ASSERT_EQ(stopping.state, CycleState::kStopping) << stopping.reason;
+  EXPECT_TRUE(stopping.is_final);
+  EXPECT_TRUE(contains(stopping.blocked, "the committed trajectory is blocked (sample at t="))
+      << stopping.blocked;
+  EXPECT_TRUE(contains(stopping.blocked, "no stop stays in certified free space"))
+      << stopping.blocked;
+  expectStop(stopping);
+  ASSERT_TRUE(stopping.trajectory);
+
+  // The stop keeps failing the re-check where it rests; what replaces it stays there.
+  const Eigen::Vector3d rest = stopping.trajectory->evaluate(stopping.trajectory->duration());
+  for (int k = 0; k < 3; ++k) {
+    const CycleReport next = pilot.cycle(wall.field);
+    EXPECT_EQ(next.state, CycleState::kStopping) << next.reason;
+    EXPECT_LT((pilot.estimate().position - rest).norm(), 1e-9) << "cycle " << next.cycle;
+  }
+}
+
+TEST(LocalPlanner, ABlockedCycleStopsBeforeItAsksTheExplorer) {
+  Pilot pilot(withExplorer());
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const NewWall wall = wallAfterTakeOff(pilot, 0.15);
+
+  // The first status, still waiting for the explorer, already commits the stop.
+  const CycleReport stuck = pilot.cycle(wall.field);
+  ASSERT_EQ(stuck.state, CycleState::kStuck) << stuck.reason;
+  EXPECT_FALSE(stuck.is_final);
+  EXPECT_TRUE(contains(stuck.reason, "the committed trajectory is blocked")) << stuck.reason;
+  expectStop(stuck);
+  ASSERT_TRUE(stuck.trajectory);
+  ASSERT_TRUE(pilot.planner.waitingCycle());
+  const PolynomialTrajectory stop = *stuck.trajectory;
+
+  // The explorer has nothing: the cycle closes on the stop.
+  const CycleReport none = pilot.planner.answer(std::nullopt, "no candidate", &wall.field);
+  EXPECT_EQ(none.cycle, stuck.cycle);
+  EXPECT_EQ(none.state, CycleState::kStopping) << none.reason;
+  EXPECT_TRUE(none.is_final);
+  EXPECT_TRUE(contains(none.reason, "the committed trajectory is blocked")) << none.reason;
+  EXPECT_TRUE(contains(none.reason, "no candidate")) << none.reason;
+  EXPECT_FALSE(none.trajectory);  // the stop went out with the first status
+  ASSERT_TRUE(pilot.planner.committed());
+  EXPECT_TRUE(sameSegments(*pilot.planner.committed(), stop));
+}
+
+TEST(LocalPlanner, AnExplorerGoalReplacesTheStop) {
+  Pilot pilot(withExplorer());
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const NewWall wall = wallAfterTakeOff(pilot, 0.15);
+  const CycleReport stuck = pilot.cycle(wall.field);
+  ASSERT_EQ(stuck.state, CycleState::kStuck) << stuck.reason;
+  ASSERT_TRUE(stuck.trajectory);
+
+  // An intermediate goal to the side, along the wall.
+  const Eigen::Vector3d side = stuck.start.position + Eigen::Vector3d(0, 2.5, 0);
+  const CycleReport answered =
+      pilot.planner.answer(goalAt(77, {side}, /*from_explorer=*/true), "side", &wall.field);
+  pilot.check(answered, wall.field);
+  ASSERT_EQ(answered.state, CycleState::kPlanned) << answered.reason;
+  EXPECT_TRUE(answered.is_final);
+  EXPECT_TRUE(contains(answered.reason, "the committed trajectory is blocked")) << answered.reason;
+  EXPECT_TRUE(contains(answered.reason, "replanned")) << answered.reason;
+  ASSERT_TRUE(answered.trajectory);
+  EXPECT_FALSE(sameSegments(*answered.trajectory, *stuck.trajectory));
+  EXPECT_EQ(answered.goal_id, 77);
+}
+
+TEST(LocalPlanner, AnObstacleWithAWayAroundIsReplannedInTheSameCycle) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  ASSERT_EQ(pilot.cycle(freeSpace()).state, CycleState::kPlanned);
+  // A post on the line, where the committed trajectory ends (x = 3).
+  const DistanceField post = cylinderField({2.0, 0.0}, 0.3);
+  ASSERT_FALSE(checkClearance(*pilot.planner.committed(), 0, post, 0.6).clear);
+
+  // Pilot::check flies the new trajectory against the post.
+  const CycleReport replanned = pilot.cycle(post);
+  ASSERT_EQ(replanned.state, CycleState::kPlanned) << replanned.reason;
+  EXPECT_TRUE(contains(replanned.blocked, "the committed trajectory is blocked (sample at t="))
+      << replanned.blocked;
+  EXPECT_EQ(replanned.reason, replanned.blocked + "; replanned");
+  EXPECT_TRUE(replanned.loco.accepted);
+
+  // Past the post to the goal; the map no longer changes, so nothing is blocked again.
+  CycleReport last = replanned;
+  for (int k = 0; k < 40 && last.state == CycleState::kPlanned; ++k) {
+    last = pilot.cycle(post);
+    EXPECT_TRUE(last.blocked.empty()) << "cycle " << last.cycle << ": " << last.blocked;
+  }
+  EXPECT_EQ(last.state, CycleState::kGoalReached) << last.reason;
 }
 
 // ---- determinism ----
