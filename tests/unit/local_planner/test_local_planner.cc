@@ -755,19 +755,73 @@ TEST(LocalPlanner, ACancelWhileWaitingClosesTheCycleWithoutFlyingToTheAnswer) {
 // ---- the re-check of the committed trajectory ----
 
 TEST(LocalPlanner, AnUnchangedMapNeverBlocksTheCommittedTrajectory) {
-  // Past a cylinder just off the line, so that trajectories pass close to the clearance the
-  // acceptance test asks for: a re-check on other sample times than the acceptance test's would
-  // find points between them nearer than that.
-  const DistanceField field = cylinderField({4.5, 0.15}, 0.5);
+  // Through a gap 2.44 m wide, 2 cm of clearance more than the acceptance test asks for on the
+  // centre line, with maps that come 1.01 s apart (off the 0.02 s sample grid): the re-check must
+  // ask for what the acceptance test asked, where it asked.
+  const DistanceField field = boxesField(
+      {boxFromCorners({4.4, -5, 0}, {4.6, -0.62, 5}), boxFromCorners({4.4, 0.62, 0}, {4.6, 5, 5})});
   Pilot pilot;
   ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
   CycleReport last;
   for (int k = 0; k < 60; ++k) {
     last = pilot.cycle(field);
+    pilot.t += kSecond / 100;
     EXPECT_TRUE(last.blocked.empty()) << "cycle " << last.cycle << ": " << last.blocked;
     if (last.state != CycleState::kPlanned) break;
   }
   EXPECT_EQ(last.state, CycleState::kGoalReached) << last.reason;
+}
+
+// The strictest map on which `trajectory` still passes the acceptance test: known everywhere,
+// clear (`required`) exactly at its samples (every kClearanceCheckDt from its start, and its end),
+// 1 cm too near everywhere else.
+DistanceField clearOnlyAtTheSamplesOf(const PolynomialTrajectory& trajectory, double required) {
+  std::vector<Eigen::Vector3d> samples;
+  for (int k = 0; k * kClearanceCheckDt < trajectory.duration(); ++k) {
+    samples.push_back(trajectory.evaluate(k * kClearanceCheckDt));
+  }
+  samples.push_back(trajectory.evaluate(trajectory.duration()));
+  return [samples, required](const Eigen::Vector3d& p) {
+    for (const Eigen::Vector3d& s : samples) {
+      if (p == s) return EsdfSample{true, required, Eigen::Vector3d::Zero()};
+    }
+    return EsdfSample{true, required - 0.01, Eigen::Vector3d::Zero()};
+  };
+}
+
+TEST(LocalPlanner, TheRecheckSamplesWhereTheAcceptanceTestDid) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  ASSERT_EQ(pilot.cycle(freeSpace()).state, CycleState::kPlanned);
+  const PolynomialTrajectory committed = *pilot.planner.committed();
+  const LocoOptions& o = pilot.planner.options().loco;
+  const DistanceField strict =
+      clearOnlyAtTheSamplesOf(committed, o.robot_radius + o.clearance_margin);
+
+  // 1.013 s into it, between two samples: the rest still passes (nothing else does, so the cycle
+  // is stuck and the committed trajectory stands).
+  pilot.t = committed.startUtime() + 1'013'000;
+  const CycleReport report = pilot.cycle(strict);
+  EXPECT_TRUE(report.blocked.empty()) << report.blocked;
+  EXPECT_EQ(report.state, CycleState::kStuck) << report.reason;
+  EXPECT_FALSE(report.trajectory);
+  EXPECT_TRUE(sameSegments(*pilot.planner.committed(), committed));
+}
+
+TEST(LocalPlanner, AnObstacleOnThePartAlreadyFlownBlocksNothing) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  // Fly until the vehicle is well past where it started.
+  for (int k = 0; k < 10 && pilot.estimate().position.x() < kStart.x() + 1.5; ++k) {
+    ASSERT_EQ(pilot.cycle(freeSpace()).state, CycleState::kPlanned);
+  }
+  ASSERT_GE(pilot.estimate().position.x(), kStart.x() + 1.5);
+  // A post where it took off: on the committed trajectory, but behind the vehicle.
+  const DistanceField post = cylinderField(kStart.head<2>(), 0.3);
+  ASSERT_FALSE(checkClearance(*pilot.planner.committed(), 0, post, 0.6).clear);
+  const CycleReport report = pilot.cycle(post);
+  EXPECT_TRUE(report.blocked.empty()) << report.blocked;
+  EXPECT_EQ(report.state, CycleState::kPlanned) << report.reason;
 }
 
 // A wall that appears across the whole way (y and z far beyond the flight) once the vehicle is

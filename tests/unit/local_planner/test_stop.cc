@@ -209,6 +209,7 @@ TEST(PlanStop, TakesTheHardStopWhenOnlyItClearsAnObstacleAhead) {
   const Stop stop = planStop(kUtime, start, field, o);
   EXPECT_TRUE(stop.certified);
   expectStopFrom(stop, start, o);
+  expectHardestWithinLimits(stop, start, o);
   EXPECT_LT(stop.distance, gentler_distance);
   const testing::TrajectoryReport flown = inspectTrajectory(stop.trajectory, field, 0.01);
   EXPECT_TRUE(flown.all_known);
