@@ -12,6 +12,7 @@
 #include <ostream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -844,12 +845,10 @@ NewWall wallAfterTakeOff(Pilot& pilot, double gap) {
   return {boxesField({boxFromCorners({face, -50, -50}, {face + 1, 50, 150})}), face};
 }
 
-// The cycle's trajectory is a stop: from the reference (Pilot::check) to rest.
+// The cycle's trajectory is a stop: from the reference to rest.
 void expectStop(const CycleReport& report) {
   ASSERT_TRUE(report.trajectory);
-  const PolynomialTrajectory& stop = *report.trajectory;
-  EXPECT_LT(stop.evaluate(stop.duration() - 1e-12, 1).norm(), 1e-8);
-  EXPECT_LT(stop.evaluate(stop.duration() - 1e-12, 2).norm(), 1e-8);
+  testing::expectFromStartToRest(*report.trajectory, report.start);
 }
 
 TEST(LocalPlanner, AWallAcrossTheCommittedTrajectoryStopsTheVehicle) {
@@ -908,17 +907,24 @@ TEST(LocalPlanner, AWallTooNearForACertifiedStopTakesTheHardestStop) {
   }
 }
 
-TEST(LocalPlanner, ABlockedCycleStopsBeforeItAsksTheExplorer) {
-  Pilot pilot(withExplorer());
-  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+// With an explorer, flies toward kMission until a wall appears across the way
+// (wallAfterTakeOff(pilot, 0.15)); the cycle that sees it is stuck, waits for the explorer, and
+// its first status already commits the stop.
+std::pair<NewWall, CycleReport> stuckAtANewWall(Pilot& pilot) {
+  EXPECT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
   const NewWall wall = wallAfterTakeOff(pilot, 0.15);
-
-  // The first status, still waiting for the explorer, already commits the stop.
   const CycleReport stuck = pilot.cycle(wall.field);
-  ASSERT_EQ(stuck.state, CycleState::kStuck) << stuck.reason;
+  EXPECT_EQ(stuck.state, CycleState::kStuck) << stuck.reason;
   EXPECT_FALSE(stuck.is_final);
   EXPECT_TRUE(contains(stuck.reason, "the committed trajectory is blocked")) << stuck.reason;
   expectStop(stuck);
+  EXPECT_TRUE(pilot.planner.waitingCycle());
+  return {wall, stuck};
+}
+
+TEST(LocalPlanner, ABlockedCycleStopsBeforeItAsksTheExplorer) {
+  Pilot pilot(withExplorer());
+  const auto [wall, stuck] = stuckAtANewWall(pilot);
   ASSERT_TRUE(stuck.trajectory);
   ASSERT_TRUE(pilot.planner.waitingCycle());
   const PolynomialTrajectory stop = *stuck.trajectory;
@@ -937,11 +943,9 @@ TEST(LocalPlanner, ABlockedCycleStopsBeforeItAsksTheExplorer) {
 
 TEST(LocalPlanner, AnExplorerGoalReplacesTheStop) {
   Pilot pilot(withExplorer());
-  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
-  const NewWall wall = wallAfterTakeOff(pilot, 0.15);
-  const CycleReport stuck = pilot.cycle(wall.field);
-  ASSERT_EQ(stuck.state, CycleState::kStuck) << stuck.reason;
+  const auto [wall, stuck] = stuckAtANewWall(pilot);
   ASSERT_TRUE(stuck.trajectory);
+  ASSERT_TRUE(pilot.planner.waitingCycle());
 
   // An intermediate goal to the side, along the wall.
   const Eigen::Vector3d side = stuck.start.position + Eigen::Vector3d(0, 2.5, 0);
