@@ -1,8 +1,9 @@
 // The local planner's core (the goal state machine around goal finding and loco) driven with
 // analytic distance fields and explicit times: goal validation, holding without state or map,
 // planning from the reference, flying to a goal and through waypoints, getting stuck and asking
-// the explorer, intermediate goals, determinism. Every trajectory the planner commits here is
-// checked every 0.01 s against the exact field: distance >= robot radius, v_max and a_max kept.
+// the explorer, intermediate goals, the re-check of the committed trajectory on a new map and the
+// stop it commits, determinism. Every trajectory the planner commits here is checked every 0.01 s
+// against the exact field: distance >= robot radius, v_max and a_max kept.
 #include "thicket/local_planner/local_planner.h"
 
 #include <cmath>
