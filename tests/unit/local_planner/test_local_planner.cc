@@ -757,7 +757,7 @@ TEST(LocalPlanner, ACancelWhileWaitingClosesTheCycleWithoutFlyingToTheAnswer) {
 // ---- the re-check of the committed trajectory ----
 
 TEST(LocalPlanner, AnUnchangedMapNeverBlocksTheCommittedTrajectory) {
-  // Through a gap 2.44 m wide, 2 cm of clearance more than the acceptance test asks for on the
+  // Through a gap 1.24 m wide, 2 cm of clearance more than the acceptance test asks for on the
   // centre line, with maps that come 1.01 s apart (off the 0.02 s sample grid): the re-check must
   // ask for what the acceptance test asked, where it asked.
   const DistanceField field = boxesField(
@@ -826,16 +826,10 @@ TEST(LocalPlanner, AnObstacleOnThePartAlreadyFlownBlocksNothing) {
   EXPECT_EQ(report.state, CycleState::kPlanned) << report.reason;
 }
 
-// A wall that appears across the whole way (y and z far beyond the flight) once the vehicle is
-// flying: its clearance margin begins `gap` beyond where the hardest stop from the reference comes
-// to rest (before it when negative).
-struct NewWall {
-  DistanceField field;
-  double face = 0;  ///< x of the near face [m]
-};
-
-// Plans toward kMission in free space, then returns the wall the pilot's next cycle will see.
-NewWall wallAfterTakeOff(Pilot& pilot, double gap) {
+// Plans toward kMission in free space, then returns the map the pilot's next cycle will see: a
+// wall across the whole way (y and z far beyond the flight) whose clearance margin begins `gap`
+// beyond where the hardest stop from the reference comes to rest (before it when negative).
+DistanceField wallAfterTakeOff(Pilot& pilot, double gap) {
   const CycleReport first = pilot.cycle(freeSpace());
   EXPECT_EQ(first.state, CycleState::kPlanned) << first.reason;
   const LocoOptions& o = pilot.planner.options().loco;
@@ -843,7 +837,7 @@ NewWall wallAfterTakeOff(Pilot& pilot, double gap) {
   EXPECT_GT(reference.velocity.x(), 0.1);  // flying toward it
   const double stop = planStop(pilot.t, reference, freeSpace(), o).distance;
   const double face = reference.position.x() + stop + o.robot_radius + o.clearance_margin + gap;
-  return {boxesField({boxFromCorners({face, -50, -50}, {face + 1, 50, 150})}), face};
+  return boxesField({boxFromCorners({face, -50, -50}, {face + 1, 50, 150})});
 }
 
 // The cycle's trajectory is a stop: from the reference to rest.
@@ -855,10 +849,10 @@ void expectStop(const CycleReport& report) {
 TEST(LocalPlanner, AWallAcrossTheCommittedTrajectoryStopsTheVehicle) {
   Pilot pilot;
   ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
-  const NewWall wall = wallAfterTakeOff(pilot, 0.15);
+  const DistanceField wall = wallAfterTakeOff(pilot, 0.15);
   const LocoOptions& o = pilot.planner.options().loco;
 
-  const CycleReport stopping = pilot.cycle(wall.field);
+  const CycleReport stopping = pilot.cycle(wall);
   ASSERT_EQ(stopping.state, CycleState::kStopping) << stopping.reason;
   EXPECT_TRUE(stopping.is_final);
   EXPECT_TRUE(contains(stopping.blocked, "the committed trajectory is blocked (sample at t="))
@@ -869,14 +863,14 @@ TEST(LocalPlanner, AWallAcrossTheCommittedTrajectoryStopsTheVehicle) {
   expectStop(stopping);
   ASSERT_TRUE(stopping.trajectory);
   // Certified: flown, it keeps the clearance the acceptance asks for from the new wall.
-  const testing::TrajectoryReport flown = inspectTrajectory(*stopping.trajectory, wall.field, 0.01);
+  const testing::TrajectoryReport flown = inspectTrajectory(*stopping.trajectory, wall, 0.01);
   EXPECT_GE(flown.min_distance, o.robot_radius + o.clearance_margin)
       << "at t = " << flown.min_distance_time << " s";
 
   // It stays there: the stop passes the re-check, and nothing gets nearer the wall.
   const Eigen::Vector3d rest = stopping.trajectory->evaluate(stopping.trajectory->duration());
   for (int k = 0; k < 3; ++k) {
-    const CycleReport next = pilot.cycle(wall.field);
+    const CycleReport next = pilot.cycle(wall);
     EXPECT_EQ(next.state, CycleState::kStuck) << next.reason;
     EXPECT_TRUE(next.blocked.empty()) << next.blocked;
     EXPECT_LT((pilot.estimate().position - rest).norm(), 1e-9) << "cycle " << next.cycle;
@@ -887,9 +881,9 @@ TEST(LocalPlanner, AWallTooNearForACertifiedStopTakesTheHardestStop) {
   Pilot pilot;
   ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
   // The hardest stop ends 8 cm inside the margin (still beyond the robot radius).
-  const NewWall wall = wallAfterTakeOff(pilot, -0.08);
+  const DistanceField wall = wallAfterTakeOff(pilot, -0.08);
 
-  const CycleReport stopping = pilot.cycle(wall.field);
+  const CycleReport stopping = pilot.cycle(wall);
   ASSERT_EQ(stopping.state, CycleState::kStopping) << stopping.reason;
   EXPECT_TRUE(stopping.is_final);
   EXPECT_TRUE(contains(stopping.blocked, "the committed trajectory is blocked (sample at t="))
@@ -902,7 +896,7 @@ TEST(LocalPlanner, AWallTooNearForACertifiedStopTakesTheHardestStop) {
   // The stop keeps failing the re-check where it rests; what replaces it stays there.
   const Eigen::Vector3d rest = stopping.trajectory->evaluate(stopping.trajectory->duration());
   for (int k = 0; k < 3; ++k) {
-    const CycleReport next = pilot.cycle(wall.field);
+    const CycleReport next = pilot.cycle(wall);
     EXPECT_EQ(next.state, CycleState::kStopping) << next.reason;
     EXPECT_LT((pilot.estimate().position - rest).norm(), 1e-9) << "cycle " << next.cycle;
   }
@@ -911,10 +905,10 @@ TEST(LocalPlanner, AWallTooNearForACertifiedStopTakesTheHardestStop) {
 // With an explorer, flies toward kMission until a wall appears across the way
 // (wallAfterTakeOff(pilot, 0.15)); the cycle that sees it is stuck, waits for the explorer, and
 // its first status already commits the stop.
-std::pair<NewWall, CycleReport> stuckAtANewWall(Pilot& pilot) {
+std::pair<DistanceField, CycleReport> stuckAtANewWall(Pilot& pilot) {
   EXPECT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
-  const NewWall wall = wallAfterTakeOff(pilot, 0.15);
-  const CycleReport stuck = pilot.cycle(wall.field);
+  const DistanceField wall = wallAfterTakeOff(pilot, 0.15);
+  const CycleReport stuck = pilot.cycle(wall);
   EXPECT_EQ(stuck.state, CycleState::kStuck) << stuck.reason;
   EXPECT_FALSE(stuck.is_final);
   EXPECT_TRUE(contains(stuck.reason, "the committed trajectory is blocked")) << stuck.reason;
@@ -931,7 +925,7 @@ TEST(LocalPlanner, ABlockedCycleStopsBeforeItAsksTheExplorer) {
   const PolynomialTrajectory stop = *stuck.trajectory;
 
   // The explorer has nothing: the cycle closes on the stop.
-  const CycleReport none = pilot.planner.answer(std::nullopt, "no candidate", &wall.field);
+  const CycleReport none = pilot.planner.answer(std::nullopt, "no candidate", &wall);
   EXPECT_EQ(none.cycle, stuck.cycle);
   EXPECT_EQ(none.state, CycleState::kStopping) << none.reason;
   EXPECT_TRUE(none.is_final);
@@ -951,8 +945,8 @@ TEST(LocalPlanner, AnExplorerGoalReplacesTheStop) {
   // An intermediate goal to the side, along the wall.
   const Eigen::Vector3d side = stuck.start.position + Eigen::Vector3d(0, 2.5, 0);
   const CycleReport answered =
-      pilot.planner.answer(goalAt(77, {side}, /*from_explorer=*/true), "side", &wall.field);
-  pilot.check(answered, wall.field);
+      pilot.planner.answer(goalAt(77, {side}, /*from_explorer=*/true), "side", &wall);
+  pilot.check(answered, wall);
   ASSERT_EQ(answered.state, CycleState::kPlanned) << answered.reason;
   EXPECT_TRUE(answered.is_final);
   EXPECT_TRUE(contains(answered.reason, "the committed trajectory is blocked")) << answered.reason;
