@@ -139,6 +139,18 @@ inline TrajectoryReport inspectTrajectory(const PolynomialTrajectory& trajectory
   return report;
 }
 
+/// Expects `trajectory` to start in `start` (position, velocity and acceleration) and to end at
+/// rest, just before its end (after it, it holds still anyway).
+inline void expectFromStartToRest(const PolynomialTrajectory& trajectory,
+                                  const TrajectoryState& start) {
+  EXPECT_LT((trajectory.evaluate(0, 0) - start.position).norm(), 1e-9);
+  EXPECT_LT((trajectory.evaluate(0, 1) - start.velocity).norm(), 1e-9);
+  EXPECT_LT((trajectory.evaluate(0, 2) - start.acceleration).norm(), 1e-9);
+  const double end = trajectory.duration() - 1e-12;
+  EXPECT_LT(trajectory.evaluate(end, 1).norm(), 1e-8);
+  EXPECT_LT(trajectory.evaluate(end, 2).norm(), 1e-8);
+}
+
 /// Checks the result's trajectory every 0.01 s: valid, known everywhere, within v_max and a_max
 /// (+1e-6). Returns the smallest analytic distance along it (for the caller to compare with the
 /// robot radius).

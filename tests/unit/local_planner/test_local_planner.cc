@@ -1,8 +1,9 @@
 // The local planner's core (the goal state machine around goal finding and loco) driven with
 // analytic distance fields and explicit times: goal validation, holding without state or map,
 // planning from the reference, flying to a goal and through waypoints, getting stuck and asking
-// the explorer, intermediate goals, determinism. Every trajectory the planner commits here is
-// checked every 0.01 s against the exact field: distance >= robot radius, v_max and a_max kept.
+// the explorer, intermediate goals, the re-check of the committed trajectory on a new map and the
+// stop it commits, determinism. Every trajectory the planner commits here is checked every 0.01 s
+// against the exact field: distance >= robot radius, v_max and a_max kept.
 #include "thicket/local_planner/local_planner.h"
 
 #include <cmath>
@@ -12,11 +13,13 @@
 #include <ostream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "analytic_fields.h"
+#include "thicket/local_planner/stop.h"
 
 namespace thicket::local_planner {
 
@@ -749,6 +752,233 @@ TEST(LocalPlanner, ACancelWhileWaitingClosesTheCycleWithoutFlyingToTheAnswer) {
   EXPECT_FALSE(pilot.planner.intermediateGoal());
   ASSERT_TRUE(pilot.planner.committed());
   EXPECT_TRUE(sameSegments(*pilot.planner.committed(), *before));
+}
+
+// ---- the re-check of the committed trajectory ----
+
+TEST(LocalPlanner, AnUnchangedMapNeverBlocksTheCommittedTrajectory) {
+  // Through a gap 1.24 m wide, 2 cm of clearance more than the acceptance test asks for on the
+  // centre line, with maps that come 1.01 s apart (off the 0.02 s sample grid): the re-check must
+  // ask for what the acceptance test asked, where it asked.
+  const DistanceField field = boxesField(
+      {boxFromCorners({4.4, -5, 0}, {4.6, -0.62, 5}), boxFromCorners({4.4, 0.62, 0}, {4.6, 5, 5})});
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  CycleReport last;
+  for (int k = 0; k < 60; ++k) {
+    last = pilot.cycle(field);
+    pilot.t += kSecond / 100;
+    EXPECT_TRUE(last.blocked.empty()) << "cycle " << last.cycle << ": " << last.blocked;
+    if (last.state != CycleState::kPlanned) break;
+  }
+  EXPECT_EQ(last.state, CycleState::kGoalReached) << last.reason;
+}
+
+// The strictest map on which `trajectory` still passes the acceptance test: known everywhere,
+// clear (`required`) exactly at its samples (every kClearanceCheckDt from its start, and its end),
+// 1 cm too near everywhere else.
+DistanceField clearOnlyAtTheSamplesOf(const PolynomialTrajectory& trajectory, double required) {
+  std::vector<Eigen::Vector3d> samples;
+  for (int k = 0; k * kClearanceCheckDt < trajectory.duration(); ++k) {
+    samples.push_back(trajectory.evaluate(k * kClearanceCheckDt));
+  }
+  samples.push_back(trajectory.evaluate(trajectory.duration()));
+  return [samples, required](const Eigen::Vector3d& p) {
+    for (const Eigen::Vector3d& s : samples) {
+      if (p == s) return EsdfSample{true, required, Eigen::Vector3d::Zero()};
+    }
+    return EsdfSample{true, required - 0.01, Eigen::Vector3d::Zero()};
+  };
+}
+
+TEST(LocalPlanner, TheRecheckSamplesWhereTheAcceptanceTestDid) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  ASSERT_EQ(pilot.cycle(freeSpace()).state, CycleState::kPlanned);
+  const PolynomialTrajectory committed = *pilot.planner.committed();
+  const LocoOptions& o = pilot.planner.options().loco;
+  const DistanceField strict =
+      clearOnlyAtTheSamplesOf(committed, o.robot_radius + o.clearance_margin);
+
+  // 1.013 s into it, between two samples: the rest still passes (nothing else does, so the cycle
+  // is stuck and the committed trajectory stands).
+  pilot.t = committed.startUtime() + 1'013'000;
+  const CycleReport report = pilot.cycle(strict);
+  EXPECT_TRUE(report.blocked.empty()) << report.blocked;
+  EXPECT_EQ(report.state, CycleState::kStuck) << report.reason;
+  EXPECT_FALSE(report.trajectory);
+  EXPECT_TRUE(sameSegments(*pilot.planner.committed(), committed));
+}
+
+TEST(LocalPlanner, AnObstacleOnThePartAlreadyFlownBlocksNothing) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  // Fly until the vehicle is well past where it started.
+  for (int k = 0; k < 10 && pilot.estimate().position.x() < kStart.x() + 1.5; ++k) {
+    ASSERT_EQ(pilot.cycle(freeSpace()).state, CycleState::kPlanned);
+  }
+  ASSERT_GE(pilot.estimate().position.x(), kStart.x() + 1.5);
+  // A post where it took off: on the committed trajectory, but behind the vehicle.
+  const DistanceField post = cylinderField(kStart.head<2>(), 0.3);
+  ASSERT_FALSE(checkClearance(*pilot.planner.committed(), 0, post, 0.6).clear);
+  const CycleReport report = pilot.cycle(post);
+  EXPECT_TRUE(report.blocked.empty()) << report.blocked;
+  EXPECT_EQ(report.state, CycleState::kPlanned) << report.reason;
+}
+
+// Plans toward kMission in free space, then returns the map the pilot's next cycle will see: a
+// wall across the whole way (y and z far beyond the flight) whose clearance margin begins `gap`
+// beyond where the hardest stop from the reference comes to rest (before it when negative).
+DistanceField wallAfterTakeOff(Pilot& pilot, double gap) {
+  const CycleReport first = pilot.cycle(freeSpace());
+  EXPECT_EQ(first.state, CycleState::kPlanned) << first.reason;
+  const LocoOptions& o = pilot.planner.options().loco;
+  const TrajectoryState reference = pilot.planner.committed()->stateAtUtime(pilot.t);
+  EXPECT_GT(reference.velocity.x(), 0.1);  // flying toward it
+  const double stop = planStop(pilot.t, reference, freeSpace(), o).distance;
+  const double face = reference.position.x() + stop + o.robot_radius + o.clearance_margin + gap;
+  return boxesField({boxFromCorners({face, -50, -50}, {face + 1, 50, 150})});
+}
+
+// The cycle's trajectory is a stop: from the reference to rest.
+void expectStop(const CycleReport& report) {
+  ASSERT_TRUE(report.trajectory);
+  testing::expectFromStartToRest(*report.trajectory, report.start);
+}
+
+TEST(LocalPlanner, AWallAcrossTheCommittedTrajectoryStopsTheVehicle) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField wall = wallAfterTakeOff(pilot, 0.15);
+  const LocoOptions& o = pilot.planner.options().loco;
+
+  const CycleReport stopping = pilot.cycle(wall);
+  ASSERT_EQ(stopping.state, CycleState::kStopping) << stopping.reason;
+  EXPECT_TRUE(stopping.is_final);
+  EXPECT_TRUE(contains(stopping.blocked, "the committed trajectory is blocked (sample at t="))
+      << stopping.blocked;
+  EXPECT_TRUE(contains(stopping.blocked, "in certified free space")) << stopping.blocked;
+  EXPECT_FALSE(contains(stopping.blocked, "no stop")) << stopping.blocked;
+  EXPECT_TRUE(contains(stopping.reason, stopping.blocked)) << stopping.reason;
+  expectStop(stopping);
+  ASSERT_TRUE(stopping.trajectory);
+  // Certified: flown, it keeps the clearance the acceptance asks for from the new wall.
+  const testing::TrajectoryReport flown = inspectTrajectory(*stopping.trajectory, wall, 0.01);
+  EXPECT_GE(flown.min_distance, o.robot_radius + o.clearance_margin)
+      << "at t = " << flown.min_distance_time << " s";
+
+  // It stays there: the stop passes the re-check, and nothing gets nearer the wall.
+  const Eigen::Vector3d rest = stopping.trajectory->evaluate(stopping.trajectory->duration());
+  for (int k = 0; k < 3; ++k) {
+    const CycleReport next = pilot.cycle(wall);
+    EXPECT_EQ(next.state, CycleState::kStuck) << next.reason;
+    EXPECT_TRUE(next.blocked.empty()) << next.blocked;
+    EXPECT_LT((pilot.estimate().position - rest).norm(), 1e-9) << "cycle " << next.cycle;
+  }
+}
+
+TEST(LocalPlanner, AWallTooNearForACertifiedStopTakesTheHardestStop) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  // The hardest stop ends 8 cm inside the margin (still beyond the robot radius).
+  const DistanceField wall = wallAfterTakeOff(pilot, -0.08);
+
+  const CycleReport stopping = pilot.cycle(wall);
+  ASSERT_EQ(stopping.state, CycleState::kStopping) << stopping.reason;
+  EXPECT_TRUE(stopping.is_final);
+  EXPECT_TRUE(contains(stopping.blocked, "the committed trajectory is blocked (sample at t="))
+      << stopping.blocked;
+  EXPECT_TRUE(contains(stopping.blocked, "no stop stays in certified free space"))
+      << stopping.blocked;
+  expectStop(stopping);
+  ASSERT_TRUE(stopping.trajectory);
+
+  // The stop keeps failing the re-check where it rests; what replaces it stays there.
+  const Eigen::Vector3d rest = stopping.trajectory->evaluate(stopping.trajectory->duration());
+  for (int k = 0; k < 3; ++k) {
+    const CycleReport next = pilot.cycle(wall);
+    EXPECT_EQ(next.state, CycleState::kStopping) << next.reason;
+    EXPECT_LT((pilot.estimate().position - rest).norm(), 1e-9) << "cycle " << next.cycle;
+  }
+}
+
+// With an explorer, flies toward kMission until a wall appears across the way
+// (wallAfterTakeOff(pilot, 0.15)); the cycle that sees it is stuck, waits for the explorer, and
+// its first status already commits the stop.
+std::pair<DistanceField, CycleReport> stuckAtANewWall(Pilot& pilot) {
+  EXPECT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField wall = wallAfterTakeOff(pilot, 0.15);
+  const CycleReport stuck = pilot.cycle(wall);
+  EXPECT_EQ(stuck.state, CycleState::kStuck) << stuck.reason;
+  EXPECT_FALSE(stuck.is_final);
+  EXPECT_TRUE(contains(stuck.reason, "the committed trajectory is blocked")) << stuck.reason;
+  expectStop(stuck);
+  EXPECT_TRUE(pilot.planner.waitingCycle());
+  return {wall, stuck};
+}
+
+TEST(LocalPlanner, ABlockedCycleStopsBeforeItAsksTheExplorer) {
+  Pilot pilot(withExplorer());
+  const auto [wall, stuck] = stuckAtANewWall(pilot);
+  ASSERT_TRUE(stuck.trajectory);
+  ASSERT_TRUE(pilot.planner.waitingCycle());
+  const PolynomialTrajectory stop = *stuck.trajectory;
+
+  // The explorer has nothing: the cycle closes on the stop.
+  const CycleReport none = pilot.planner.answer(std::nullopt, "no candidate", &wall);
+  EXPECT_EQ(none.cycle, stuck.cycle);
+  EXPECT_EQ(none.state, CycleState::kStopping) << none.reason;
+  EXPECT_TRUE(none.is_final);
+  EXPECT_TRUE(contains(none.reason, "the committed trajectory is blocked")) << none.reason;
+  EXPECT_TRUE(contains(none.reason, "no candidate")) << none.reason;
+  EXPECT_FALSE(none.trajectory);  // the stop went out with the first status
+  ASSERT_TRUE(pilot.planner.committed());
+  EXPECT_TRUE(sameSegments(*pilot.planner.committed(), stop));
+}
+
+TEST(LocalPlanner, AnExplorerGoalReplacesTheStop) {
+  Pilot pilot(withExplorer());
+  const auto [wall, stuck] = stuckAtANewWall(pilot);
+  ASSERT_TRUE(stuck.trajectory);
+  ASSERT_TRUE(pilot.planner.waitingCycle());
+
+  // An intermediate goal to the side, along the wall.
+  const Eigen::Vector3d side = stuck.start.position + Eigen::Vector3d(0, 2.5, 0);
+  const CycleReport answered =
+      pilot.planner.answer(goalAt(77, {side}, /*from_explorer=*/true), "side", &wall);
+  pilot.check(answered, wall);
+  ASSERT_EQ(answered.state, CycleState::kPlanned) << answered.reason;
+  EXPECT_TRUE(answered.is_final);
+  EXPECT_TRUE(contains(answered.reason, "the committed trajectory is blocked")) << answered.reason;
+  EXPECT_TRUE(contains(answered.reason, "replanned")) << answered.reason;
+  ASSERT_TRUE(answered.trajectory);
+  EXPECT_FALSE(sameSegments(*answered.trajectory, *stuck.trajectory));
+  EXPECT_EQ(answered.goal_id, 77);
+}
+
+TEST(LocalPlanner, AnObstacleWithAWayAroundIsReplannedInTheSameCycle) {
+  Pilot pilot;
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  ASSERT_EQ(pilot.cycle(freeSpace()).state, CycleState::kPlanned);
+  // A post on the line, where the committed trajectory ends (x = 3).
+  const DistanceField post = cylinderField({2.0, 0.0}, 0.3);
+  ASSERT_FALSE(checkClearance(*pilot.planner.committed(), 0, post, 0.6).clear);
+
+  // Pilot::check flies the new trajectory against the post.
+  const CycleReport replanned = pilot.cycle(post);
+  ASSERT_EQ(replanned.state, CycleState::kPlanned) << replanned.reason;
+  EXPECT_TRUE(contains(replanned.blocked, "the committed trajectory is blocked (sample at t="))
+      << replanned.blocked;
+  EXPECT_EQ(replanned.reason, replanned.blocked + "; replanned");
+  EXPECT_TRUE(replanned.loco.accepted);
+
+  // Past the post to the goal; the map no longer changes, so nothing is blocked again.
+  CycleReport last = replanned;
+  for (int k = 0; k < 40 && last.state == CycleState::kPlanned; ++k) {
+    last = pilot.cycle(post);
+    EXPECT_TRUE(last.blocked.empty()) << "cycle " << last.cycle << ": " << last.blocked;
+  }
+  EXPECT_EQ(last.state, CycleState::kGoalReached) << last.reason;
 }
 
 // ---- determinism ----

@@ -2,8 +2,9 @@
 // reason, the ESDF mirror asks for a snapshot when it has none, a new map revision plans exactly
 // once as soon as the state estimate at its time is in (trajectory first, then the cycle's final
 // status, then the timing), bad estimates are refused, explorer answers for cycles that are not
-// waiting are ignored, a stuck cycle waits for the explorer, and setpoints follow the committed
-// trajectory with yaw along the velocity.
+// waiting are ignored, a stuck cycle waits for the explorer, a revision that blocks the committed
+// trajectory publishes a stop and STATE_STOPPING, and setpoints follow the committed trajectory
+// with yaw along the velocity.
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -150,10 +151,11 @@ EsdfLayer freeEsdf() {
   return esdfAround([](const Eigen::Vector3d&) { return 2.0; });
 }
 
-// A wall across x in [2.5, 3.5]: the signed distance to the slab, capped at 2 m.
-EsdfLayer wallEsdf() {
-  return esdfAround(
-      [](const Eigen::Vector3d& p) { return std::min(2.0, std::max(2.5 - p.x(), p.x() - 3.5)); });
+// A wall 1 m thick across x in [face, face + 1]: the signed distance to the slab, capped at 2 m.
+EsdfLayer wallEsdf(double face = 2.5) {
+  return esdfAround([face](const Eigen::Vector3d& p) {
+    return std::min(2.0, std::max(face - p.x(), p.x() - face - 1));
+  });
 }
 
 std::vector<map_update_t> snapshot(const EsdfLayer& layer, int64_t utime, int64_t revision) {
@@ -486,6 +488,56 @@ TEST_F(LocalPlannerNodeExplorerTest, AStuckCycleWaitsForTheExplorersAnswer) {
   EXPECT_FALSE(planner.planner().waitingCycle());
   ASSERT_TRUE(planner.planner().intermediateGoal());
   EXPECT_EQ(planner.planner().intermediateGoal()->id, 41);
+}
+
+// ---- the re-check ----
+
+TEST_F(LocalPlannerNodeTest, ARevisionThatBlocksTheCommittedTrajectoryStops) {
+  const int64_t t = 5 * kSecond;
+  world.publish("MISSION_GOAL", goalMsg(61, {Eigen::Vector3d(10, 0, 1.5)}));
+  world.publish("STATE_ESTIMATE", odometryAt(t, kStart));
+  publishAll(snapshot(freeEsdf(), t, 1));
+  loop.drain();
+  ASSERT_EQ(recorder.statuses.size(), 1u);
+  ASSERT_EQ(recorder.statuses[0].state, +planner_status_t::STATE_PLANNED)
+      << recorder.statuses[0].reason;
+  const PolynomialTrajectory committed = *planner.planner().committed();
+
+  // 1 s later, flying toward it (~0.3 m/s, a stop takes ~4 cm), the next revision shows a wall
+  // across the way whose clearance margin begins 20 cm ahead: no plan makes progress toward the
+  // goal, a stop does.
+  const int64_t t1 = t + kSecond;
+  const TrajectoryState reference = committed.stateAtUtime(t1);
+  ASSERT_GT(reference.velocity.x(), 0.1);
+  const LocoOptions& o = planner.planner().options().loco;
+  const double required = o.robot_radius + o.clearance_margin;
+  const double face = reference.position.x() + required + 0.2;
+  recorder.clear();
+  world.publish("STATE_ESTIMATE", odometryAt(t1, reference.position, reference.velocity));
+  publishAll(snapshot(wallEsdf(face), t1, 2));
+  loop.drain();
+  ASSERT_EQ(recorder.order,
+            (std::vector<std::string>{"PLANNER_TRAJECTORY", "PLANNER_STATUS", "MODULE_TIMING"}));
+  const planner_status_t& status = recorder.statuses[0];
+  EXPECT_EQ(status.state, +planner_status_t::STATE_STOPPING) << status.reason;
+  EXPECT_TRUE(status.is_final);
+  EXPECT_EQ(status.cycle, 2);
+  EXPECT_EQ(status.map_revision, 2);
+  EXPECT_TRUE(contains(status.reason, "the committed trajectory is blocked (sample at t="))
+      << status.reason;
+  EXPECT_TRUE(contains(status.reason, "stopping within")) << status.reason;
+  EXPECT_TRUE(contains(status.reason, "in certified free space")) << status.reason;
+
+  // The stop went out before the status: from the reference to rest, short of the margin.
+  auto stop = PolynomialTrajectory::fromLcm(recorder.trajectories[0]);
+  ASSERT_TRUE(stop) << stop.error();
+  EXPECT_EQ(recorder.trajectories[0].cycle, 2);
+  EXPECT_EQ(stop->startUtime(), t1);
+  EXPECT_NEAR((stop->evaluate(0) - reference.position).norm(), 0, 1e-9);
+  EXPECT_NEAR((stop->evaluate(0, 1) - reference.velocity).norm(), 0, 1e-9);
+  EXPECT_LT(stop->evaluate(stop->duration() - 1e-12, 1).norm(), 1e-8);
+  EXPECT_LE(stop->evaluate(stop->duration()).x(), face - required);
+  EXPECT_TRUE(contains(planner.summary(), "1 stopping")) << planner.summary();
 }
 
 // ---- setpoints ----
