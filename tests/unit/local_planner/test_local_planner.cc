@@ -757,12 +757,14 @@ TEST(LocalPlanner, ACancelWhileWaitingClosesTheCycleWithoutFlyingToTheAnswer) {
 // ---- the re-check of the committed trajectory ----
 
 TEST(LocalPlanner, AnUnchangedMapNeverBlocksTheCommittedTrajectory) {
-  // Through a gap 1.24 m wide, 2 cm of clearance more than the acceptance test asks for on the
-  // centre line, with maps that come 1.01 s apart (off the 0.02 s sample grid): the re-check must
-  // ask for what the acceptance test asked, where it asked.
-  const DistanceField field = boxesField(
-      {boxFromCorners({4.4, -5, 0}, {4.6, -0.62, 5}), boxFromCorners({4.4, 0.62, 0}, {4.6, 5, 5})});
+  // Through a gap 2 cm of clearance wider than the acceptance test asks for on the centre line,
+  // with maps that come 1.01 s apart (off the 0.02 s sample grid): the re-check must ask for what
+  // the acceptance test asked, where it asked.
   Pilot pilot;
+  const LocoOptions& loco = pilot.planner.options().loco;
+  const double half_gap = loco.robot_radius + loco.clearance_margin + 0.02;
+  const DistanceField field = boxesField({boxFromCorners({4.4, -5, 0}, {4.6, -half_gap, 5}),
+                                          boxFromCorners({4.4, half_gap, 0}, {4.6, 5, 5})});
   ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
   CycleReport last;
   for (int k = 0; k < 60; ++k) {
