@@ -26,23 +26,29 @@ const std::vector<MappingVariant>& mappingVariants() {
       {"line_of_sight", "TSDF distances along the line of sight; sites in the surface band only",
        [](mapper::MapperOptions& o) {
          o.tsdf.normal_distances = false;
+         o.tsdf.new_surfaces_replace = false;
          o.esdf.crossing_sites = false;
        }},
       {"normal", "TSDF distances along the surface normal estimated from the depth image",
        [](mapper::MapperOptions& o) {
          o.tsdf.normal_distances = true;
+         o.tsdf.new_surfaces_replace = false;
          o.esdf.crossing_sites = false;
        }},
       {"crossing", "line of sight, and sites at the TSDF's zero crossings",
        [](mapper::MapperOptions& o) {
          o.tsdf.normal_distances = false;
+         o.tsdf.new_surfaces_replace = false;
          o.esdf.crossing_sites = true;
        }},
       {"normal_crossing", "normal distances and sites at the zero crossings",
        [](mapper::MapperOptions& o) {
          o.tsdf.normal_distances = true;
+         o.tsdf.new_surfaces_replace = false;
          o.esdf.crossing_sites = true;
        }},
+      {"defaults", "normal distances, crossing sites, and new surfaces replacing free history",
+       [](mapper::MapperOptions&) {}},
   };
   return variants;
 }
@@ -328,6 +334,12 @@ Measured measure(const ClearanceOptions& options, const Flight& flight, const Co
     const Eigen::Vector3d& centre = frame.body.position;
     const double r2 = options.horizon * options.horizon;
     const double near = options.robot_radius + options.band;
+    // Where the planner may put the centre: the world's bounds shrunk by the robot radius (its
+    // flight volume); elsewhere no sample is ever accepted.
+    const auto inVolume = [&](const Eigen::Vector3d& q) {
+      return (q.array() >= flight.world.bounds_min.array() + options.robot_radius).all() &&
+             (q.array() <= flight.world.bounds_max.array() - options.robot_radius).all();
+    };
     const VoxelIndex lo = esdf.voxelIndex((centre.array() - options.horizon).matrix());
     const VoxelIndex hi = esdf.voxelIndex((centre.array() + options.horizon).matrix());
     for (int z = lo.z(); z <= hi.z(); ++z) {
@@ -335,7 +347,7 @@ Measured measure(const ClearanceOptions& options, const Flight& flight, const Co
         for (int x = lo.x(); x <= hi.x(); ++x) {
           const VoxelIndex v(x, y, z);
           const Eigen::Vector3d c = esdf.voxelCenter(v);
-          if ((c - centre).squaredNorm() > r2) continue;
+          if ((c - centre).squaredNorm() > r2 || !inVolume(c)) continue;
           const EsdfVoxel* e = esdf.voxel(v);
           const TsdfVoxel* t = tsdf.voxel(v);
           if (e == nullptr || !e->observed || t == nullptr || !(t->weight > 0)) continue;
@@ -354,6 +366,7 @@ Measured measure(const ClearanceOptions& options, const Flight& flight, const Co
         offset = Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
       } while (offset.squaredNorm() > 1.0);
       const Eigen::Vector3d p = centre + options.horizon * offset;
+      if (!inVolume(p)) continue;
       const EsdfSample s = sampleEsdf(esdf, p);
       if (!s.known || !observedAround(tsdf, p)) continue;
       const double d = truth.distance(p);

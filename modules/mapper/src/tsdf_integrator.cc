@@ -25,8 +25,11 @@ struct PixelMeasurement {
 // The per-voxel update rule shared by both methods (see the header).
 class VoxelUpdater {
  public:
-  VoxelUpdater(double voxel_size, double truncation, double max_weight)
-      : voxel_size_(voxel_size), truncation_(truncation), max_weight_(max_weight) {}
+  VoxelUpdater(double voxel_size, double truncation, double max_weight, bool new_surfaces_replace)
+      : voxel_size_(voxel_size),
+        truncation_(truncation),
+        max_weight_(max_weight),
+        new_surfaces_replace_(new_surfaces_replace) {}
 
   double truncation() const { return truncation_; }
 
@@ -36,6 +39,19 @@ class VoxelUpdater {
     if (!(sdf > -truncation_)) return false;
     if (sdf < -voxel_size_) weight *= (truncation_ + sdf) / (truncation_ - voxel_size_);
     sdf = std::min(sdf, truncation_);
+    if (new_surfaces_replace_ && std::abs(sdf) <= voxel_size_ && voxel.weight > 0 &&
+        voxel.distance > 0.5 * truncation_) {
+      // A return within a voxel of a voxel the map had as clearly free: something is there now
+      // (an obstacle that appeared, or a surface earlier views only passed by). Averaged in, it
+      // would take several frames to outweigh the free-space history while the ESDF promised
+      // clearance that is not there; the measurement replaces the history instead.
+      const auto distance = static_cast<float>(sdf);
+      const auto new_weight = static_cast<float>(std::min(weight, max_weight_));
+      changed |= distance != voxel.distance || new_weight != voxel.weight;
+      voxel.distance = distance;
+      voxel.weight = new_weight;
+      return true;
+    }
     // In double, then rounded once: repeated equal measurements leave the distance bit for bit
     // unchanged, so saturated voxels do not count as changed.
     const double old_weight = voxel.weight;
@@ -54,6 +70,7 @@ class VoxelUpdater {
   double voxel_size_;
   double truncation_;
   double max_weight_;
+  bool new_surfaces_replace_;
 };
 
 double measurementWeight(double depth) {
@@ -422,6 +439,9 @@ void TsdfIntegratorOptions::declare(Params& p) {
     Range::positive());
   p("normal_distances", normal_distances,
     "store distances along the surface normal, not the line of sight");
+  p("new_surfaces_replace", new_surfaces_replace,
+    "a return within a voxel of a voxel the map had as clearly free (beyond half the "
+    "truncation) replaces its history instead of being averaged in");
 }
 
 TsdfIntegrator::TsdfIntegrator(TsdfIntegratorOptions options) : options_(options) {
@@ -447,7 +467,7 @@ TsdfIntegrationResult TsdfIntegrator::integrate(const DepthImage& image, const P
   checkDepths(image);
   const Pose pose{world_T_camera.position, world_T_camera.orientation.normalized()};
   const VoxelUpdater updater(layer.voxelSize(), options_.truncation_voxels * layer.voxelSize(),
-                             options_.max_weight);
+                             options_.max_weight, options_.new_surfaces_replace);
   return options_.method == Method::kProjective
              ? integrateProjective(image, pose, options_, updater, layer)
              : integrateRaycast(image, pose, options_, updater, layer);

@@ -7,10 +7,11 @@
 // sdf = -voxel_size, then falling linearly to 0 at sdf = -truncation; voxels deeper than the
 // truncation behind the surface are not touched. A voxel moves to the weighted mean
 //   d = (w_old d_old + w sdf) / (w_old + w),   weight = min(w_old + w, max_weight),
-// so a saturated voxel keeps following new measurements. Pixels that see nothing within range
-// (no return, a return beyond the sensor's max_range or beyond max_integration_range) clear the
-// space they looked through up to max_integration_range: sdf = truncation, or the distance to the
-// return when it is known and closer than that, with the weight of a return at the end of the
+// so a saturated voxel keeps following new measurements, except that a return within a voxel of a
+// voxel stored as clearly free replaces it (new_surfaces_replace). Pixels that see nothing within
+// range (no return, a return beyond the sensor's max_range or beyond max_integration_range) clear
+// the space they looked through up to max_integration_range: sdf = truncation, or the distance to
+// the return when it is known and closer than that, with the weight of a return at the end of the
 // integration range, 1 / max_integration_range^2, so clearing never outweighs a real surface.
 // Returns below the image's min_range are not measurements and are ignored.
 #pragma once
@@ -49,6 +50,11 @@ struct TsdfIntegratorOptions {
   /// the line of sight, which overstates it by 1 / cosine where the surface is seen at a slant
   /// (`thicket-bench clearance` measures what each choice costs the ESDF's accuracy).
   bool normal_distances = true;
+  /// A return within a voxel of a voxel the map had as clearly free (distance beyond half the
+  /// truncation) replaces the voxel's history rather than being averaged into it: an obstacle that
+  /// appears where the map saw free space many times is in the map at once, not a few frames
+  /// later. Only distances toward a surface jump; free space still builds up over frames.
+  bool new_surfaces_replace = true;
 
   void declare(Params& p);
 };
