@@ -7,8 +7,9 @@
 // The real graph (local_exploration, the shipped options) flies each world once; the frames it saw
 // (the vehicle's pose at every replan period) are then rendered again and mapped afresh by the
 // mapper core under every configuration: voxel size × depth noise × mapping variant. After each
-// frame, within the planning horizon of the vehicle, where the true distance (the analytic ground
-// truth) is at most robot radius + band:
+// frame, within the planning horizon of the vehicle and the flight volume (the world's bounds
+// shrunk by the robot radius), where the true distance (the analytic ground truth) is at most robot
+// radius + band:
 //   - voxels: every voxel in free space observed by the TSDF (weight > 0) and flagged observed in
 //     the ESDF: the error is its ESDF distance − the true distance at its centre;
 //   - points: seeded random points in free space (the same for every configuration) where the
