@@ -861,8 +861,9 @@ std::optional<E3Table> e3Table(const std::vector<const Trial*>& e2) {
     }
   }
   E3Table table;
-  table.text = "Success over all E2 worlds: random " + successCell(random_success) +
-               ", local_exploration " + successCell(le_success) + ".\n\n";
+  table.text = "Success over every E2 world of the scenario: random " +
+               successCell(random_success) + ", local_exploration " + successCell(le_success) +
+               ".\n\n";
   if (total.pairs == 0) {
     table.text += "No world was solved by both methods.\n\n";
     return table;
