@@ -61,12 +61,13 @@ namespace {
 // An experiment that flies trials: the cross product of its lists, `trials` worlds each.
 struct Plan {
   const char* id;
-  const char* scenario;
+  std::vector<std::string> scenarios;
   std::vector<double> densities;
   std::vector<std::string> methods;
   std::vector<std::string> goal_findings;
   int trials;
   int replans;
+  bool dynamic_obstacle = false;  // the simulator's dynamic obstacle, with its default options
 };
 
 const std::vector<Plan>& plans() {
@@ -75,9 +76,11 @@ const std::vector<Plan>& plans() {
     std::vector<double> paper;
     for (int k = 1; k <= 10; ++k) paper.push_back(k / 20.0);
     return std::vector<Plan>{
-        {"E1", "paper", paper, {"none"}, goalFindingNames(), 100, 60},
-        {"E2", "paper", paper, methodNames(), {"soft"}, 50, 120},
-        {"E4", "forest50", {0.1, 0.2}, methodNames(), {"soft"}, 20, 500},
+        {"E1", {"paper"}, paper, {"none"}, goalFindingNames(), 100, 60},
+        {"E2", {"paper", "eth"}, paper, methodNames(), {"soft"}, 50, 120},
+        {"E4", {"forest50"}, {0.1, 0.2}, methodNames(), {"soft"}, 20, 500},
+        // A path blocked in flight: a cylinder appears on the committed trajectory.
+        {"E6", {"paper"}, {0.2}, methodNames(), {"soft"}, 20, 60, true},
     };
   }();
   return table;
@@ -90,7 +93,8 @@ struct ExperimentName {
   const char* plan;  // nullptr: E5
 };
 const ExperimentName kExperimentNames[] = {{"E1", "E1"}, {"E2", "E2"},    {"E3", "E2"},
-                                           {"E4", "E4"}, {"E5", nullptr}, {"T1", "E4"}};
+                                           {"E4", "E4"}, {"E5", nullptr}, {"E6", "E6"},
+                                           {"T1", "E4"}};
 
 bool sameDensity(double a, double b) {
   return std::abs(a - b) < 1e-9;
@@ -278,8 +282,9 @@ FlagError checkFilters(const ExperimentOptions& options) {
   };
   for (const std::string& scenario : options.scenarios) {
     if (std::none_of(selected.begin(), selected.end(),
-                     [&](const Plan* p) { return scenario == p->scenario; })) {
-      return refuse("--scenario", scenario, "scenario", [](const Plan& p) { return p.scenario; });
+                     [&](const Plan* p) { return selects(p->scenarios, scenario); })) {
+      return refuse("--scenario", scenario, "scenario",
+                    [](const Plan& p) { return joined(p.scenarios); });
     }
   }
   for (double density : options.densities) {
@@ -330,16 +335,18 @@ std::string experimentUsage() {
          "  e.g. E2/paper/d0.2/random/soft/depth/s7; its files are named by the key with '-'.\n"
          "  --out DIR            the output folder (required)\n"
          "  --experiment LIST    comma list of E1, E2, E3 (E2's trials), E4, T1 (E4's trials),\n"
-         "                       E5 (default: all)\n"
-         "  --scenario LIST      only these scenarios (E1, E2: paper; E4: forest50)\n"
-         "  --density LIST       only these densities (E1, E2: 0.05 ... 0.5; E4: 0.1, 0.2)\n"
+         "                       E5, E6 (default: all)\n"
+         "  --scenario LIST      only these scenarios (E1, E6: paper; E2: paper, eth;\n"
+         "                       E4: forest50)\n"
+         "  --density LIST       only these densities (E1, E2: 0.05 ... 0.5; E4: 0.1, 0.2;\n"
+         "                       E6: 0.2)\n"
          "  --method LIST        only these methods:\n"
          "                       " +
          joined(methodNames()) +
          "\n"
          "  --goal-finding LIST  only these goal-finding variants: " +
          joined(goalFindingNames()) +
-         " (E2, E4: soft)\n"
+         " (E2, E4, E6: soft)\n"
          "  --trials N           trials per configuration (default " +
          defaults(&Plan::trials) +
          ")\n"
@@ -366,8 +373,8 @@ std::string mergeUsage() {
          "  one that could not) in DIR/rows/merged.csv with the trials' paths and logs, their run\n"
          "  log lines, then writes DIR/trials.csv, a DIR/run_log.csv line and the report.\n"
          "  Refuses rows files written with other columns (also those of an older thicket-bench\n"
-         "  without the oracle columns solvable_collision_radius, bottleneck_m, "
-         "needs_overflight).\n";
+         "  without the oracle columns solvable_collision_radius, bottleneck_m, needs_overflight\n"
+         "  or the dynamic obstacle's obstacle_clearance_m, blocked_cycles).\n";
 }
 
 }  // namespace
@@ -387,25 +394,28 @@ Expected<ExperimentOptions> parseExperimentOptions(const std::vector<std::string
 std::vector<TrialSpec> trialList(const ExperimentOptions& options) {
   std::vector<TrialSpec> list;
   for (const Plan* plan : selectedPlans(options)) {
-    if (!selects(options.scenarios, plan->scenario)) continue;
     TrialSpec spec;
     spec.experiment = plan->id;
-    spec.scenario = plan->scenario;
+    spec.dynamic_obstacle = plan->dynamic_obstacle;
     spec.replans = options.replans.value_or(plan->replans);
     const int trials = options.trials.value_or(plan->trials);
     for (int t = 0; t < trials; ++t) {
       spec.trial = t;
       spec.seed = static_cast<uint64_t>(options.seed_base) + static_cast<uint64_t>(t);
-      for (double density : plan->densities) {
-        if (!selectsDensity(options.densities, density)) continue;
-        spec.density = density;
-        for (const std::string& method : plan->methods) {
-          if (!selects(options.methods, method)) continue;
-          spec.method = method;
-          for (const std::string& goal_finding : plan->goal_findings) {
-            if (!selects(options.goal_findings, goal_finding)) continue;
-            spec.goal_finding = goal_finding;
-            list.push_back(spec);
+      for (const std::string& scenario : plan->scenarios) {
+        if (!selects(options.scenarios, scenario)) continue;
+        spec.scenario = scenario;
+        for (double density : plan->densities) {
+          if (!selectsDensity(options.densities, density)) continue;
+          spec.density = density;
+          for (const std::string& method : plan->methods) {
+            if (!selects(options.methods, method)) continue;
+            spec.method = method;
+            for (const std::string& goal_finding : plan->goal_findings) {
+              if (!selects(options.goal_findings, goal_finding)) continue;
+              spec.goal_finding = goal_finding;
+              list.push_back(spec);
+            }
           }
         }
       }
@@ -506,10 +516,10 @@ Expected<Row> rowFromCells(std::vector<std::string> cells) {
   s.method = row.cell("method");
   s.goal_finding = row.cell("goal_finding");
   s.sensor = row.cell("sensor");
-  if (std::none_of(plans().begin(), plans().end(),
-                   [&](const Plan& p) { return s.experiment == p.id; })) {
-    return unexpected("unknown experiment '" + s.experiment + "'");
-  }
+  const auto plan = std::find_if(plans().begin(), plans().end(),
+                                 [&](const Plan& p) { return s.experiment == p.id; });
+  if (plan == plans().end()) return unexpected("unknown experiment '" + s.experiment + "'");
+  s.dynamic_obstacle = plan->dynamic_obstacle;
   if (!parseInt(row.cell("trial"), s.trial) || !parseInt(row.cell("seed"), s.seed) ||
       !parseDouble(row.cell("density"), s.density) ||
       !parseInt(row.cell("replan_limit"), s.replans)) {
@@ -520,6 +530,15 @@ Expected<Row> rowFromCells(std::vector<std::string> cells) {
     if (row.cell(flag) != "0" && row.cell(flag) != "1") {
       return unexpected(std::string(flag) + " is neither 0 nor 1");
     }
+  }
+  double clearance = 0;
+  int blocked = 0;
+  if (!row.cell("obstacle_clearance_m").empty() &&
+      !parseDouble(row.cell("obstacle_clearance_m"), clearance)) {
+    return unexpected("obstacle_clearance_m is neither empty nor a number");
+  }
+  if (!parseInt(row.cell("blocked_cycles"), blocked) || blocked < 0) {
+    return unexpected("blocked_cycles is not a count");
   }
   auto timings = parseTimings(row.cell("timings"));
   if (!timings) return unexpected("timings is not stage=median/p95/max;...");
@@ -558,22 +577,31 @@ void warn(const std::string& command, const std::string& message) {
   std::fprintf(stderr, "thicket-bench %s: %s\n", command.c_str(), message.c_str());
 }
 
-// Throws unless `csv` is empty or starts with the rows header. Rows written before the oracle
-// had two radii are refused, not read with the new columns empty: their `solvable` is the oracle
-// at the collision radius, where new rows have it at the planning radius.
+// Throws unless `csv` is empty or starts with the rows header. Rows of an older thicket-bench
+// are refused with what they lack, not read with the new columns empty: those written before the
+// oracle had two radii have `solvable` at the collision radius, where new rows have it at the
+// planning radius; those written before the dynamic obstacle have no obstacle_clearance_m and
+// blocked_cycles, which an E6 row must have.
 void checkRowsHeader(const std::string& path, const CsvText& csv) {
   if (csv.records.empty() || csv.records[0].cells == rowColumns()) return;
   const std::vector<std::string>& header = csv.records[0].cells;
   const auto has = [&](const char* column) {
     return std::find(header.begin(), header.end(), column) != header.end();
   };
+  const auto older = [&](const std::string& what) {
+    return std::runtime_error(path + ": rows of an older thicket-bench, " + what +
+                              "; they cannot be resumed or merged with new rows (use another "
+                              "--out; the report still reads that folder's trials.csv)");
+  };
   if (has("solvable") && !has("solvable_collision_radius")) {
-    throw std::runtime_error(
-        path +
-        ": rows of an older thicket-bench, whose solvable is the oracle at the collision radius "
-        "and which lack solvable_collision_radius, bottleneck_m and needs_overflight; they cannot "
-        "be resumed or merged with new rows (use another --out; the report still reads that "
-        "folder's trials.csv)");
+    throw older(
+        "whose solvable is the oracle at the collision radius and which lack "
+        "solvable_collision_radius, bottleneck_m and needs_overflight");
+  }
+  if (has("end_reason") && !has("obstacle_clearance_m") && !has("blocked_cycles")) {
+    throw older(
+        "written before the dynamic obstacle (E6), which lack obstacle_clearance_m and "
+        "blocked_cycles");
   }
   throw std::runtime_error(path + ": not a rows file of this thicket-bench (its header is '" +
                            joined(header, ",") + "', expected '" + joined(rowColumns(), ",") +
@@ -778,6 +806,7 @@ Row flyTrial(const TrialSpec& spec, const FlyContext& context) {
   run.trials = 1;
   run.seed_base = static_cast<int64_t>(spec.seed) - spec.trial;
   run.replans = spec.replans;
+  run.dynamic_obstacle = spec.dynamic_obstacle;
   run.worlds_dir = context.options.worlds_dir;
   run.out = context.options.out;
   const std::string key = spec.key();

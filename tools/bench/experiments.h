@@ -1,12 +1,13 @@
 // thicket-bench experiment / merge: the benchmark's experiments (BENCHMARK.md: E1, E2, E4 fly
-// trials; E3 and T1 are computed from E2's and E4's rows; E5 is its own program), run as one
+// trials; E3 and T1 are computed from E2's and E4's rows; E5 is its own program; E6 flies trials
+// with the simulator's dynamic obstacle), run as one
 // deterministic list of trials that can be resumed after a kill, split across machines
 // (--shard i/N) and merged back.
 //
 // Output folder DIR:
 //   rows/shard-<i>-of-<N>.csv  one line per finished trial, appended and flushed at once (the
 //                              resume state). Columns: the fixed columns of trials.csv (up to
-//                              end_reason), then `timings`: "<stage>=<median>/<p95>/<max>;..."
+//                              blocked_cycles), then `timings`: "<stage>=<median>/<p95>/<max>;..."
 //                              in milliseconds, sorted by stage, since the stages differ from
 //                              trial to trial. merge writes rows/merged.csv.
 //   trials.csv                 every trial of rows/*.csv once (a row that could not run is
@@ -29,14 +30,16 @@ namespace thicket::bench {
 
 /// One trial of an experiment.
 struct TrialSpec {
-  std::string experiment;  ///< "E1", "E2" or "E4"
+  std::string experiment;  ///< "E1", "E2", "E4" or "E6"
   std::string scenario;
   double density = 0;
   std::string method;
   std::string goal_finding;
   std::string sensor = "depth";
   int replans = 0;  ///< the sim's replan limit
-  int trial = 0;    ///< its number in its configuration
+  /// The simulator's dynamic obstacle is on (E6; implied by the experiment, not in the key).
+  bool dynamic_obstacle = false;
+  int trial = 0;  ///< its number in its configuration
   uint64_t seed = 0;
 
   /// "<experiment>/<scenario>/d<density %g>/<method>/<goal_finding>/<sensor>/s<seed>".
@@ -52,7 +55,7 @@ std::string trialLogFile(const std::string& key);
 
 /// What `thicket-bench experiment` was asked for. Empty selection lists select everything.
 struct ExperimentOptions {
-  std::vector<std::string> experiments;  ///< E1, E2, E3, E4, E5, T1, in the order given
+  std::vector<std::string> experiments;  ///< E1, E2, E3, E4, E5, E6, T1, in the order given
   std::vector<std::string> scenarios;
   std::vector<double> densities;
   std::vector<std::string> methods;
@@ -74,8 +77,9 @@ struct ExperimentOptions {
 Expected<ExperimentOptions> parseExperimentOptions(const std::vector<std::string>& args);
 
 /// Every trial the selection asks for, in a fixed order that depends only on the selection:
-/// E1, E2, E4; within an experiment trial number first, then density, method and goal finding,
-/// so a run stopped early covers every configuration evenly. Trial t uses seed seed_base + t.
+/// E1, E2, E4, E6; within an experiment trial number first, then scenario (E2: paper, eth),
+/// density, method and goal finding, so a run stopped early covers every configuration evenly.
+/// Trial t uses seed seed_base + t.
 std::vector<TrialSpec> trialList(const ExperimentOptions& options);
 
 /// Whether shard `index`/`count` runs the trial at `position` of trialList().

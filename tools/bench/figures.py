@@ -10,6 +10,7 @@ Wilson intervals, means) is computed in report.cc; this script only draws. Run i
 
 import csv
 import os
+import re
 import sys
 import traceback
 
@@ -234,9 +235,6 @@ def main(argv):
         (["e1_success.csv"], "e1_success.png",
          lambda: success_vs_density(at("e1_success.csv"), at("e1_success.png"),
                                     "E1: optimization only, success vs density")),
-        (["e2_success.csv"], "e2_success.png",
-         lambda: success_vs_density(at("e2_success.csv"), at("e2_success.png"),
-                                    "E2: goal-selection strategies, success vs density")),
         (["e3_path_length.csv"], "e3_path_length.png",
          lambda: e3_path_length(at("e3_path_length.csv"), at("e3_path_length.png"))),
         (["e4_success.csv"], "e4_success.png",
@@ -247,6 +245,18 @@ def main(argv):
         (["e5_subsampling.csv"], "e5_subsampling.png",
          lambda: e5_subsampling(at("e5_subsampling.csv"), at("e5_subsampling.png"))),
     ]
+    # E2, one figure per scenario: e2_success.csv is the paper world's, e2_success_<scenario>.csv
+    # another's (report.cc, e2Figure).
+    for name in sorted(os.listdir(figures)):
+        match = re.fullmatch(r"e2_success(?:_(.+))?\.csv", name)
+        if not match:
+            continue
+        scenario = match.group(1) or "paper"
+        png = name[:-len(".csv")] + ".png"
+        jobs.append(([name], png,
+                     lambda name=name, png=png, scenario=scenario: success_vs_density(
+                         at(name), at(png),
+                         "E2 on %s: goal-selection strategies, success vs density" % scenario)))
     failed = 0
     for tables, png, draw in jobs:
         if not all(os.path.exists(at(t)) for t in tables):

@@ -16,6 +16,7 @@
 #include <iterator>
 #include <map>
 #include <optional>
+#include <regex>
 #include <set>
 #include <stdexcept>
 #include <tuple>
@@ -125,6 +126,10 @@ struct Trial {
   double min_clearance_m = 0, distance_to_goal_m = 0, path_length_m = 0, straight_line_m = 0,
          path_time_s = 0, wall_time_s = 0;
   int64_t num_replans = 0;
+  // The dynamic obstacle's columns (E6): the clearance is absent when the trial had no obstacle
+  // or it never appeared; both are absent in a file written before the columns existed.
+  std::optional<double> obstacle_clearance_m;
+  std::optional<int64_t> blocked_cycles;
   std::map<std::string, StageTiming> timings;
 
   bool ran() const { return !failedToRun(end_reason); }
@@ -151,6 +156,15 @@ std::vector<Trial> readTrials(const std::string& path) {
                path_time = columns.require("path_time_s"), solvable = columns.require("solvable"),
                wall_time = columns.require("wall_time_s"),
                end_reason = columns.require("end_reason");
+  // The dynamic obstacle's columns come together; without them the file is older.
+  struct ObstacleColumns {
+    size_t clearance, blocked;
+  };
+  std::optional<ObstacleColumns> obstacle;
+  if (columns.has("blocked_cycles")) {
+    obstacle =
+        ObstacleColumns{columns.require("obstacle_clearance_m"), columns.require("blocked_cycles")};
+  }
   // The planning radius's oracle columns come together; without them the file is older.
   struct PlanningOracle {
     size_t collision_radius, bottleneck, overflight;
@@ -220,6 +234,12 @@ std::vector<Trial> readTrials(const std::string& path) {
       t.solvable_collision_radius = columns.flag(row, solvable, no);
     }
     t.wall_time_s = columns.number(row, wall_time, zero);
+    if (obstacle) {
+      if (!row.cells[obstacle->clearance].empty()) {
+        t.obstacle_clearance_m = columns.number(row, obstacle->clearance);
+      }
+      t.blocked_cycles = columns.integer(row, obstacle->blocked, zero_int);
+    }
     for (const auto& [stage, c] : stages) {
       if (row.cells[c.median].empty()) continue;  // the trial did not run this stage
       t.timings[stage] = {columns.number(row, c.median), columns.number(row, c.p95),
@@ -338,6 +358,28 @@ std::vector<const Trial*> select(const std::vector<Trial>& trials, const std::st
     if (t.spec.experiment == experiment && t.ran()) selected.push_back(&t);
   }
   return selected;
+}
+
+// The scenario of the paper's own world: listed first, its E2 figure named without a scenario
+// (e2_success.png), and E3's claim (path lengths) is about it.
+constexpr const char* kPaperScenario = "paper";
+
+// `trials` by scenario, kPaperScenario first, then the others alphabetically: the sections of an
+// experiment flown on several scenarios show each on its own.
+std::vector<std::pair<std::string, std::vector<const Trial*>>> byScenario(
+    const std::vector<const Trial*>& trials) {
+  std::map<std::string, std::vector<const Trial*>> groups;
+  for (const Trial* t : trials) groups[t->spec.scenario].push_back(t);
+  std::vector<std::pair<std::string, std::vector<const Trial*>>> ordered_groups;
+  for (const std::string& scenario : ordered(keysOf(groups), {kPaperScenario})) {
+    ordered_groups.emplace_back(scenario, groups[scenario]);
+  }
+  return ordered_groups;
+}
+
+// "E2/paper": how the tables over every experiment name a row, one per experiment and scenario.
+std::string experimentScenario(const TrialSpec& spec) {
+  return spec.experiment + "/" + spec.scenario;
 }
 
 // ---- formatting ----
@@ -481,26 +523,24 @@ std::string successMatrix(const SuccessTable& table, const std::vector<std::stri
 
 std::string overviewSection(const std::vector<Trial>& trials, const std::vector<RunLogRow>& runs,
                             bool has_e5, size_t e5_rows) {
-  std::map<std::string, std::vector<const Trial*>> by_experiment;
-  for (const Trial& t : trials) by_experiment[t.spec.experiment].push_back(&t);
+  std::map<std::string, std::pair<int, int>> by_experiment;  // E2/paper -> trials, ran
+  std::set<std::string> experiments;
+  for (const Trial& t : trials) {
+    auto& [count, ran] = by_experiment[experimentScenario(t.spec)];
+    ++count;
+    ran += t.ran();
+    experiments.insert(t.spec.experiment);
+  }
   std::string text = "## Contents\n\n";
   std::vector<std::vector<std::string>> rows;
-  for (const auto& [experiment, rows_of] : by_experiment) {
-    std::set<std::string> scenarios;
-    int ran = 0;
-    for (const Trial* t : rows_of) {
-      scenarios.insert(t->spec.scenario);
-      ran += t->ran();
-    }
-    std::string scenario_list;
-    for (const std::string& s : scenarios) scenario_list += (scenario_list.empty() ? "" : ", ") + s;
-    rows.push_back({experiment, scenario_list, std::to_string(rows_of.size()), std::to_string(ran),
-                    std::to_string(static_cast<int>(rows_of.size()) - ran)});
+  for (const auto& [experiment, counts] : by_experiment) {
+    rows.push_back({experiment, std::to_string(counts.first), std::to_string(counts.second),
+                    std::to_string(counts.first - counts.second)});
   }
-  text += markdownTable({"experiment", "scenarios", "trials", "ran", "could not run"}, rows);
+  text += markdownTable({"experiment/scenario", "trials", "ran", "could not run"}, rows);
   std::vector<std::string> derived;
-  if (by_experiment.count("E2")) derived.push_back("E3 from the E2 trials");
-  if (by_experiment.count("E4")) derived.push_back("T1 from the E4 trials");
+  if (experiments.count("E2")) derived.push_back("E3 from the E2 trials");
+  if (experiments.count("E4")) derived.push_back("T1 from the E4 trials");
   if (has_e5)
     derived.push_back("E5 from e5_subsampling.csv (" + std::to_string(e5_rows) + " rows)");
   if (!derived.empty()) {
@@ -543,8 +583,8 @@ std::string throughputSection(const std::vector<Trial>& trials,
   int count = 0;
   for (const Trial& t : trials) {
     if (!t.ran()) continue;
-    by_experiment[t.spec.experiment].first += t.path_time_s;
-    by_experiment[t.spec.experiment].second += t.wall_time_s;
+    by_experiment[experimentScenario(t.spec)].first += t.path_time_s;
+    by_experiment[experimentScenario(t.spec)].second += t.wall_time_s;
     simulated += t.path_time_s;
     wall += t.wall_time_s;
     ++count;
@@ -561,9 +601,9 @@ std::string throughputSection(const std::vector<Trial>& trials,
       "## Throughput\n\nSimulated seconds flown per wall-clock second: the sum of path_time_s "
       "over the sum of wall_time_s of the trials, i.e. per thread (each trial runs on one "
       "thread).\n\n";
-  text += markdownTable(
-      {"experiment", "simulated [s]", "trial wall time [s]", "simulated s per wall s, per thread"},
-      rows);
+  text += markdownTable({"experiment/scenario", "simulated [s]", "trial wall time [s]",
+                         "simulated s per wall s, per thread"},
+                        rows);
   double run_wall = 0;
   int invocations = 0;
   for (const RunLogRow& r : runs) {
@@ -583,16 +623,18 @@ std::string throughputSection(const std::vector<Trial>& trials,
   return text;
 }
 
-// Collisions of the conservative methods in every experiment (the target is zero), and every
-// such trial by key with its executed clearance, so a regression names the worlds to replay.
+// Collisions of the conservative methods in every experiment and scenario (the target is zero;
+// E6's count the dynamic obstacle too), and every such trial by key with its executed clearance,
+// so a regression names the worlds to replay.
 std::string safetySection(const std::vector<Trial>& trials) {
-  std::map<std::string, Tally> tallies;  // experiment -> collisions (as successes) / trials
+  std::map<std::string, Tally> tallies;  // E2/paper -> collisions (as successes) / trials
   std::map<std::string, double> closest;
   std::vector<const Trial*> collided;
   for (const Trial& t : trials) {
     if (!t.ran() || !conservativeMethod(t.spec.method)) continue;
-    tallies[t.spec.experiment].add(t.collision);
-    const auto [it, inserted] = closest.emplace(t.spec.experiment, t.min_clearance_m);
+    const std::string experiment = experimentScenario(t.spec);
+    tallies[experiment].add(t.collision);
+    const auto [it, inserted] = closest.emplace(experiment, t.min_clearance_m);
     if (!inserted) it->second = std::min(it->second, t.min_clearance_m);
     if (t.collision) collided.push_back(&t);
   }
@@ -609,10 +651,11 @@ std::string safetySection(const std::vector<Trial>& trials) {
   std::string text =
       "## Safety: collisions of the conservative methods\n\n"
       "Every method but rrt_star_optimistic must never collide (target: zero). A collision is "
-      "an executed path closer to an obstacle than the robot radius.\n\n" +
-      markdownTable(
-          {"experiment", "conservative trials", "collisions", "smallest executed clearance [m]"},
-          rows);
+      "an executed path closer to an obstacle than the robot radius; in E6 the dynamic obstacle "
+      "is one from its appearance on.\n\n" +
+      markdownTable({"experiment/scenario", "conservative trials", "collisions",
+                     "smallest executed clearance [m]"},
+                    rows);
   if (!collided.empty()) {
     text += "Trials that collided (executed clearance):\n\n";
     for (const Trial* t : collided) {
@@ -693,9 +736,16 @@ std::string worldsSection(const std::vector<Trial>& trials) {
                        rows);
 }
 
-std::string e2Section(Report& report, const std::vector<Trial>& trials) {
-  const auto e2 = select(trials, "E2");
-  if (e2.empty()) return "";
+// E2's figure of one scenario: e2_success.png for kPaperScenario, e2_success_<scenario>.png for
+// the others; `extension` ".png" or ".csv" (its data).
+std::string e2Figure(const std::string& scenario, const std::string& extension) {
+  return std::string("e2_success") + (scenario == kPaperScenario ? "" : "_" + scenario) + extension;
+}
+
+// E2 on one scenario: success per method and density, per method over every density, on the
+// worlds solvable at either oracle radius.
+std::string e2ScenarioSection(Report& report, const std::string& scenario,
+                              const std::vector<const Trial*>& e2) {
   // Success over the worlds solvable at the planning radius and at the collision radius.
   SuccessTable all, on_planning, on_collision;
   std::map<std::string, int> collisions;
@@ -721,13 +771,15 @@ std::string e2Section(Report& report, const std::vector<Trial>& trials) {
     if (t->success) lengths[method].push_back(t->path_length_m);
   }
   const auto order = ordered(keysOf(all), methodNames());
-  report.figureData("e2_success.png", "e2_success.csv", successCsv(all, order));
+  const std::string figure = e2Figure(scenario, ".png");
+  report.figureData(figure, e2Figure(scenario, ".csv"), successCsv(all, order));
 
   std::string text =
-      "## E2: goal-selection strategies, success per method and density\n\n"
+      "## E2: goal-selection strategies on " + scenario +
+      ", success per method and density\n\n"
       "Cells: successes/trials = rate [95 % interval].\n\n" +
       successMatrix(all, order, "density") +
-      report.image("e2_success.png", "E2: success rate vs density per method");
+      report.image(figure, "E2 on " + scenario + ": success rate vs density per method");
 
   std::vector<std::vector<std::string>> rows;
   for (const std::string& method : order) {
@@ -741,33 +793,48 @@ std::string e2Section(Report& report, const std::vector<Trial>& trials) {
                     successCell(collision), std::to_string(collisions[method]), target,
                     medianOrDash(lengths[method])});
   }
-  text +=
-      "### Per method, all densities\n\nA world is solvable when the ground-truth oracle finds "
-      "a path for a sphere of the planning radius (robot radius + the planner's acceptance "
-      "margin) or of the collision radius (robot radius); solvable worlds are counted in "
-      "trials. Target: zero collisions for every conservative method (all but "
-      "rrt_star_optimistic). Path length: median over the successful trials.\n\n" +
-      (planning_known ? "" : noPlanningOracle()) +
-      markdownTable({"method", "success", "solvable at planning radius",
-                     "success on solvable at planning radius", "solvable at collision radius",
-                     "success on solvable at collision radius", "collisions",
-                     "zero-collision target", "median path length [m]"},
-                    rows);
-  text += "### Success on worlds solvable at the planning radius\n\n" +
+  const std::string on = " (" + scenario + ")\n\n";
+  text += "### Per method, all densities" + on +
+          "A world is solvable when the ground-truth oracle finds "
+          "a path for a sphere of the planning radius (robot radius + the planner's acceptance "
+          "margin) or of the collision radius (robot radius); solvable worlds are counted in "
+          "trials. Target: zero collisions for every conservative method (all but "
+          "rrt_star_optimistic). Path length: median over the successful trials.\n\n" +
+          (planning_known ? "" : noPlanningOracle()) +
+          markdownTable({"method", "success", "solvable at planning radius",
+                         "success on solvable at planning radius", "solvable at collision radius",
+                         "success on solvable at collision radius", "collisions",
+                         "zero-collision target", "median path length [m]"},
+                        rows);
+  text += "### Success on worlds solvable at the planning radius" + on +
           (planning_known ? successMatrix(on_planning, order, "density") : noPlanningOracle());
-  text += "### Success on worlds solvable at the collision radius\n\n" +
+  text += "### Success on worlds solvable at the collision radius" + on +
           successMatrix(on_collision, order, "density");
   return text;
 }
 
-std::string e3Section(Report& report, const std::vector<Trial>& trials) {
-  // A world is (scenario, density, seed) flown with the same goal finding and sensor.
+// E2 on every scenario it was flown on, each on its own.
+std::string e2Section(Report& report, const std::vector<Trial>& trials) {
+  std::string text;
+  for (const auto& [scenario, e2] : byScenario(select(trials, "E2"))) {
+    text += e2ScenarioSection(report, scenario, e2);
+  }
+  return text;
+}
+
+// E3 on one scenario's E2 trials: the table of mean path lengths on the worlds both random and
+// local_exploration solved, and the figure's data (density, pairs, the two means); empty when
+// either method flew none of its worlds.
+struct E3Table {
+  std::string text, csv;
+};
+std::optional<E3Table> e3Table(const std::vector<const Trial*>& e2) {
+  // A world is (density, seed) flown with the same goal finding and sensor.
   std::map<std::string, std::pair<const Trial*, const Trial*>> worlds;  // random, local_exploration
   Tally random_success, le_success;
-  for (const Trial* t : select(trials, "E2")) {
-    const std::string world = t->spec.scenario + "/" + densityText(t->spec.density) + "/" +
-                              t->spec.goal_finding + "/" + t->spec.sensor + "/" +
-                              std::to_string(t->spec.seed);
+  for (const Trial* t : e2) {
+    const std::string world = densityText(t->spec.density) + "/" + t->spec.goal_finding + "/" +
+                              t->spec.sensor + "/" + std::to_string(t->spec.seed);
     if (t->spec.method == "random") {
       worlds[world].first = t;
       random_success.add(t->success);
@@ -776,7 +843,7 @@ std::string e3Section(Report& report, const std::vector<Trial>& trials) {
       le_success.add(t->success);
     }
   }
-  if (random_success.trials == 0 || le_success.trials == 0) return "";
+  if (random_success.trials == 0 || le_success.trials == 0) return std::nullopt;
 
   struct Sums {
     int pairs = 0;
@@ -793,14 +860,14 @@ std::string e3Section(Report& report, const std::vector<Trial>& trials) {
       s->local += local->path_length_m;
     }
   }
-  std::string text =
-      "## E3: path length, random vs local_exploration\n\n"
-      "On the E2 worlds that both random and local_exploration solved. Paper: local exploration "
-      "is on par with random in success and its paths are up to 35 % shorter.\n\n";
-  text += "Success over all E2 worlds: random " + successCell(random_success) +
-          ", local_exploration " + successCell(le_success) + ".\n\n";
-  if (total.pairs == 0) return text + "No world was solved by both methods.\n\n";
-
+  E3Table table;
+  table.text = "Success over every E2 world of the scenario: random " +
+               successCell(random_success) + ", local_exploration " + successCell(le_success) +
+               ".\n\n";
+  if (total.pairs == 0) {
+    table.text += "No world was solved by both methods.\n\n";
+    return table;
+  }
   auto row = [](const std::string& label, const Sums& s) {
     const double random = s.random / s.pairs, local = s.local / s.pairs;
     return std::vector<std::string>{
@@ -808,19 +875,43 @@ std::string e3Section(Report& report, const std::vector<Trial>& trials) {
         meters(local), print("%.3f", local / random), print("%.1f %%", 100 * (1 - local / random))};
   };
   std::vector<std::vector<std::string>> rows;
-  std::string csv = "density,pairs,random_mean_m,local_exploration_mean_m\n";
+  table.csv = "density,pairs,random_mean_m,local_exploration_mean_m\n";
   for (const auto& [density, s] : by_density) {
     rows.push_back(row(densityText(density), s));
-    csv += densityText(density) + "," + std::to_string(s.pairs) +
-           print(",%.6f,%.6f\n", s.random / s.pairs, s.local / s.pairs);
+    table.csv += densityText(density) + "," + std::to_string(s.pairs) +
+                 print(",%.6f,%.6f\n", s.random / s.pairs, s.local / s.pairs);
   }
   rows.push_back(row("all", total));
-  report.figureData("e3_path_length.png", "e3_path_length.csv", csv);
-  text += markdownTable(
+  table.text += markdownTable(
       {"density", "worlds both solved", "random mean [m]", "local_exploration mean [m]",
        "ratio (local_exploration / random)", "local_exploration shorter by"},
       rows);
-  return text + report.image("e3_path_length.png", "E3: mean path length per density");
+  return table;
+}
+
+// E3 on the paper's world (its claim) with the figure; other scenarios' E2 trials each get a
+// table of their own below it.
+std::string e3Section(Report& report, const std::vector<Trial>& trials) {
+  std::string text;
+  for (const auto& [scenario, e2] : byScenario(select(trials, "E2"))) {
+    const std::optional<E3Table> table = e3Table(e2);
+    if (!table) continue;
+    if (text.empty()) {
+      text =
+          "## E3: path length, random vs local_exploration\n\n"
+          "On the E2 worlds that both random and local_exploration solved. Paper: local "
+          "exploration is on par with random in success and its paths are up to 35 % shorter "
+          "(on its own world, " +
+          std::string(kPaperScenario) + ").\n\n";
+    }
+    text += "### E3 on " + scenario + "\n\n" + table->text;
+    if (scenario == kPaperScenario && !table->csv.empty()) {
+      report.figureData("e3_path_length.png", "e3_path_length.csv", table->csv);
+      text += report.image("e3_path_length.png",
+                           "E3: mean path length per density on " + std::string(kPaperScenario));
+    }
+  }
+  return text;
 }
 
 // The E4 top-down figure's data: the world of the lowest seed at density 0.2 (else the highest
@@ -920,6 +1011,75 @@ std::string e4Section(Report& report, const std::vector<Trial>& trials,
       "interval]; path length over the successful trials.\n\n" +
       markdownTable(header, rows) + report.image("e4_success.png", "E4: success per method");
   return text + forestFigure(report, e4, worlds_dir);
+}
+
+// E6, a path blocked in flight: per method, whether the dynamic obstacle appeared, whether the
+// vehicle came within the robot radius of it, how close it came, and how many planner cycles
+// found the committed trajectory blocked. One table per scenario and density flown.
+std::string e6Section(Report& report, const std::vector<Trial>& trials,
+                      const std::string& worlds_dir) {
+  const auto e6 = select(trials, "E6");
+  if (e6.empty()) return "";
+  std::map<std::pair<std::string, double>, std::vector<const Trial*>> groups;
+  for (const Trial* t : e6) groups[{t->spec.scenario, t->spec.density}].push_back(t);
+  std::string text =
+      "## E6: a path blocked in flight\n\n"
+      "The simulator's dynamic obstacle: a cylinder of radius 0.5 m, as tall as the height limit, "
+      "appears on the vehicle's committed trajectory 2-2.5 m ahead at the first frame at or after "
+      "5 s with that much committed path left (it may never appear). Touched: the vehicle came "
+      "closer to it than the robot radius (a collision). Clearance: the smallest over the trials "
+      "in which it appeared. Blocked cycles: planner cycles that found their committed "
+      "trajectory blocked by a new map; the median over the trials in which it appeared.\n\n";
+  for (const auto& [where, group] : groups) {
+    const auto& [scenario, density] = where;
+    std::optional<double> robot_radius;
+    if (auto spec = sim::loadScenario(scenario, worlds_dir)) {
+      robot_radius = spec->robot_radius;
+    } else {
+      report.problems.push_back("E6: " + spec.error());
+    }
+    struct Counts {
+      Tally success;
+      int appeared = 0, touched = 0, collisions = 0, blocked = 0;
+      std::optional<double> closest;
+      std::vector<double> blocked_cycles;
+    };
+    std::map<std::string, Counts> by_method;
+    bool known = true;
+    for (const Trial* t : group) {
+      Counts& c = by_method[t->spec.method];
+      c.success.add(t->success);
+      c.collisions += t->collision;
+      known = known && t->blocked_cycles.has_value();
+      if (!t->obstacle_clearance_m) continue;
+      const double clearance = *t->obstacle_clearance_m;
+      ++c.appeared;
+      c.touched += robot_radius && clearance < *robot_radius;
+      c.closest = std::min(c.closest.value_or(clearance), clearance);
+      c.blocked += t->blocked_cycles.value_or(0) > 0;
+      c.blocked_cycles.push_back(static_cast<double>(t->blocked_cycles.value_or(0)));
+    }
+    std::vector<std::vector<std::string>> rows;
+    for (const std::string& method : ordered(keysOf(by_method), methodNames())) {
+      const Counts& c = by_method[method];
+      const auto ifKnown = [known](const std::string& cell) { return known ? cell : "–"; };
+      rows.push_back({method, std::to_string(c.success.trials), ifKnown(std::to_string(c.appeared)),
+                      robot_radius ? ifKnown(std::to_string(c.touched)) : "–",
+                      std::to_string(c.collisions), successCell(c.success),
+                      c.closest ? print("%.4f", *c.closest) : "–",
+                      ifKnown(std::to_string(c.blocked)),
+                      c.blocked_cycles.empty() ? "–" : print("%g", median(c.blocked_cycles))});
+    }
+    text += "### E6 on " + scenario + ", density " + densityText(density) + "\n\n" +
+            (known ? ""
+                   : "Unknown here: this trials.csv has no column blocked_cycles (written "
+                     "before the dynamic obstacle's columns).\n\n") +
+            markdownTable({"method", "trials", "obstacle appeared", "touched it", "collisions",
+                           "success", "smallest clearance to the obstacle [m]",
+                           "with a blocked cycle", "median blocked cycles"},
+                          rows);
+  }
+  return text;
 }
 
 std::string t1Section(const std::vector<Trial>& trials) {
@@ -1044,10 +1204,19 @@ std::string drawFigures(const std::string& python, const std::string& script,
 }
 
 const char* const kFigureFiles[] = {
-    "e1_success.png",     "e1_success.csv",      "e2_success.png",      "e2_success.csv",
-    "e3_path_length.png", "e3_path_length.csv",  "e4_success.png",      "e4_success.csv",
-    "e4_forest.png",      "e4_forest_world.csv", "e4_forest_paths.csv", "e5_subsampling.png",
-    "e5_subsampling.csv", "figures.log"};
+    "e1_success.png",      "e1_success.csv",     "e3_path_length.png", "e3_path_length.csv",
+    "e4_success.png",      "e4_success.csv",     "e4_forest.png",      "e4_forest_world.csv",
+    "e4_forest_paths.csv", "e5_subsampling.png", "e5_subsampling.csv", "figures.log"};
+
+// Whether figures/<name> is a file a report writes (and the next one replaces): those above and
+// E2's of every scenario (e2Figure).
+bool reportFigureFile(const std::string& name) {
+  if (std::find(std::begin(kFigureFiles), std::end(kFigureFiles), name) != std::end(kFigureFiles)) {
+    return true;
+  }
+  static const std::regex e2(R"(e2_success(_.+)?\.(png|csv))");
+  return std::regex_match(name, e2);
+}
 
 }  // namespace
 
@@ -1097,8 +1266,8 @@ std::string writeReport(const std::string& out_dir, const ReportOptions& options
   try {
     // This report's figures and their data replace any earlier report's.
     std::filesystem::create_directories(report.figures_dir);
-    for (const char* name : kFigureFiles) {
-      std::filesystem::remove(report.figures_dir + "/" + name);
+    for (const auto& entry : std::filesystem::directory_iterator(report.figures_dir)) {
+      if (reportFigureFile(entry.path().filename().string())) std::filesystem::remove(entry);
     }
     // The sections write the figures' data and leave a placeholder for each image.
     // (One statement each: the sections' side effects happen in the order of the summary.)
@@ -1113,6 +1282,7 @@ std::string writeReport(const std::string& out_dir, const ReportOptions& options
     text += e4Section(report, trials, worlds_dir);
     text += t1Section(trials);
     text += e5Section(report, e5);
+    text += e6Section(report, trials, worlds_dir);
     if (!report.figures.empty()) {
       const std::string error =
           drawFigures(options.python, script, out_dir, report.figures_dir + "/figures.log");

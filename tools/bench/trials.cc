@@ -19,6 +19,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <thicket/goal_t.hpp>
 #include <thicket/module_timing_t.hpp>
+#include <thicket/planner_status_t.hpp>
 
 #include "csv.h"
 #include "explorer_node.h"
@@ -103,6 +104,8 @@ std::string usage() {
          "  --sensor S        " +
          rowNames(kSensors) +
          " (stereo: rendered pairs through thicket-stereo-depth; default depth)\n"
+         "  --dynamic-obstacle on|off  the simulator's dynamic obstacle with its default options:\n"
+         "                    a cylinder that appears on the committed path (default off)\n"
          "  --trials N        number of trials, >= 1\n"
          "  --seed-base B     the seed of trial 0 (default 0)\n"
          "  --replans R       replan limit of a trial (default 60)\n"
@@ -158,6 +161,13 @@ const std::map<std::string, Setter>& setters() {
        }},
       {"--jobs",
        [](RunOptions& o, const std::string& v) { return parseInteger(o.jobs, "--jobs", v, 1); }},
+      {"--dynamic-obstacle",
+       [](RunOptions& o, const std::string& v) -> FlagError {
+         if (v != "on" && v != "off")
+           return "--dynamic-obstacle must be on or off, not '" + v + "'";
+         o.dynamic_obstacle = v == "on";
+         return {};
+       }},
       {"--worlds-dir",
        [](RunOptions& o, const std::string& v) { return setText(o.worlds_dir, v); }},
       {"--out", [](RunOptions& o, const std::string& v) { return setText(o.out, v); }},
@@ -185,8 +195,8 @@ namespace {
 
 // Wall-clock time for the nodes' stage durations (measured, never used to decide) [ms].
 
-// The benchmark's own node in a trial's graph: the operator who gives the mission goal, and the
-// recorder of every module's stage durations.
+// The benchmark's own node in a trial's graph: the recorder of every module's stage durations
+// and of the planner cycles that found their committed trajectory blocked.
 class BenchNode : public Node {
  public:
   explicit BenchNode(lcm::LCM& lcm) : Node("bench", lcm) {
@@ -200,7 +210,15 @@ class BenchNode : public Node {
           }
         },
         1000);
+    subscribe<planner_status_t>(
+        "PLANNER_STATUS",
+        [this](const planner_status_t& msg, const MessageInfo&) {
+          if (msg.reason.rfind(kBlockedTrajectoryReason, 0) == 0) blocked_cycles_.insert(msg.cycle);
+        },
+        1000);
   }
+
+  int blockedCycles() const { return static_cast<int>(blocked_cycles_.size()); }
 
   std::map<std::string, StageTiming> timings() const {
     std::map<std::string, StageTiming> timings;
@@ -212,6 +230,7 @@ class BenchNode : public Node {
 
  private:
   std::map<std::string, std::vector<double>> durations_ms_;
+  std::set<int64_t> blocked_cycles_;
 };
 
 sim::SimOptions simOptions(const RunOptions& options, const sim::World& world) {
@@ -223,6 +242,7 @@ sim::SimOptions simOptions(const RunOptions& options, const sim::World& world) {
   sim.lockstep = true;
   sim.vehicle.replan_limit = options.replans;
   sim.sensor = options.sensor;
+  sim.dynamic_obstacle.enabled = options.dynamic_obstacle;
   return sim;
 }
 
@@ -319,6 +339,8 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   result.path_time_s = toSeconds(result.path.back().utime - result.path.front().utime);
   result.end_reason = sim.endReason();
   result.timings = bench.timings();
+  if (sim.dynamicObstacle()) result.obstacle_clearance_m = sim.dynamicObstacle()->min_clearance;
+  result.blocked_cycles = bench.blockedCycles();
   return result;
 }
 
@@ -433,7 +455,9 @@ const std::vector<std::string>& outcomeColumns() {
                                                    "bottleneck_m",
                                                    "needs_overflight",
                                                    "wall_time_s",
-                                                   "end_reason"};
+                                                   "end_reason",
+                                                   "obstacle_clearance_m",
+                                                   "blocked_cycles"};
   return columns;
 }
 
@@ -455,7 +479,9 @@ std::vector<std::string> outcomeCells(const TrialResult& r) {
           fixed(r.bottleneck_m),
           flag(r.needs_overflight),
           fixed(r.wall_time_s),
-          reason};
+          reason,
+          r.obstacle_clearance_m ? fixed(*r.obstacle_clearance_m) : "",
+          std::to_string(r.blocked_cycles)};
 }
 
 std::vector<std::string> stageColumns(const std::set<std::string>& stages) {
@@ -595,6 +621,21 @@ void printSummary(const RunOptions& options, const std::string& scenario,
       "%d/%d, %d need overflight), at the collision radius %d/%d (success on them %d/%d)\n",
       success, n, collisions, solvable, n, success_on_solvable, solvable, overflight,
       solvable_collision, n, success_on_collision, solvable_collision);
+  if (options.dynamic_obstacle) {
+    int appeared = 0, blocked = 0;
+    std::vector<double> clearances;
+    for (const TrialResult& r : results) {
+      appeared += r.obstacle_clearance_m.has_value();
+      blocked += r.blocked_cycles > 0;
+      if (r.obstacle_clearance_m) clearances.push_back(*r.obstacle_clearance_m);
+    }
+    std::printf("dynamic obstacle: appeared in %d/%d trials", appeared, n);
+    if (!clearances.empty()) {
+      std::printf(", smallest clearance to it %.3f m",
+                  *std::min_element(clearances.begin(), clearances.end()));
+    }
+    std::printf("; %d trials had a cycle whose committed trajectory was blocked\n", blocked);
+  }
   if (successful_lengths.empty()) {
     std::printf("median path length of successful trials: none succeeded\n");
   } else {

@@ -36,6 +36,9 @@ struct RunOptions {
   int64_t seed_base = 0;
   int replans = 60;  ///< the sim's replan limit
   int jobs = 1;      ///< trials run on this many threads
+  /// The simulator's dynamic obstacle (sim/dynamic_obstacle.h) with its default options: a
+  /// cylinder that appears on the committed path during the flight (BENCHMARK.md E6).
+  bool dynamic_obstacle = false;
   std::string worlds_dir;
   std::string out;  ///< the output folder
   bool help = false;
@@ -73,10 +76,22 @@ struct TrialResult {
   bool needs_overflight = false;  ///< solvable at the planning radius only over a cylinder
   double wall_time_s = 0;         ///< building the graph and flying the mission
   std::string end_reason;         ///< the sim's, or "error: ..." when the trial could not run
+  /// The vehicle's smallest clearance to the dynamic obstacle from its appearance on (the
+  /// simulator's AppearedObstacle::min_clearance); absent when the trial had none or it never
+  /// appeared.
+  std::optional<double> obstacle_clearance_m;
+  /// The planner cycles that found their committed trajectory blocked by a new map: every cycle
+  /// one of whose PLANNER_STATUS messages (final or not) has a reason starting with
+  /// kBlockedTrajectoryReason, once.
+  int blocked_cycles = 0;
   /// By "<module>_<stage>" as published on MODULE_TIMING.
   std::map<std::string, StageTiming> timings;
   std::vector<sim::PathSample> path;
 };
+
+/// How the local planner's PLANNER_STATUS reason starts in a cycle whose re-check found the
+/// committed trajectory blocked (local_planner.cc), whether it then stopped or replanned.
+inline constexpr const char* kBlockedTrajectoryReason = "the committed trajectory is blocked";
 
 /// Makes a node that watches a trial's graph (benchmarks record planning problems this way); it
 /// lives as long as the trial.
@@ -133,7 +148,8 @@ TrialGraphOptions trialGraphOptions(const std::string& method, const std::string
 
 // ---- trials.csv, shared by `thicket-bench run` and `thicket-bench experiment` ----
 
-/// The columns of a trial's outcome, success ... end_reason (BENCHMARK.md's metrics).
+/// The columns of a trial's outcome, success ... end_reason (BENCHMARK.md's metrics), then the
+/// dynamic obstacle's obstacle_clearance_m (empty without one) and blocked_cycles.
 const std::vector<std::string>& outcomeColumns();
 /// A trial's cells under outcomeColumns(), unquoted; a line break in the end reason becomes a
 /// space, so a row is one line.

@@ -86,13 +86,14 @@ std::vector<TrialSpec> list(std::vector<std::string> args) {
 
 TEST(BenchExperimentList, CoversTheExperimentsInAFixedOrder) {
   const std::vector<TrialSpec> all = list({});
-  // E1: 10 densities x 3 goal findings x 100; E2: 10 x 6 methods x 50; E4: 2 x 6 x 20.
-  ASSERT_EQ(all.size(), 3000u + 3000u + 240u);
+  // E1: 10 densities x 3 goal findings x 100; E2: 2 scenarios x 10 x 6 methods x 50; E4: 2 x 6
+  // x 20; E6: 1 x 6 x 20.
+  ASSERT_EQ(all.size(), 3000u + 6000u + 240u + 120u);
   std::set<std::string> keys;
   for (const TrialSpec& spec : all) keys.insert(spec.key());
   EXPECT_EQ(keys.size(), all.size()) << "keys are not unique";
 
-  // Trial number first, then density, method, goal finding.
+  // Trial number first, then scenario, density, method, goal finding.
   EXPECT_EQ(all[0].key(), "E1/paper/d0.05/none/line/depth/s0");
   EXPECT_EQ(all[1].key(), "E1/paper/d0.05/none/gradient/depth/s0");
   EXPECT_EQ(all[2].key(), "E1/paper/d0.05/none/soft/depth/s0");
@@ -102,27 +103,47 @@ TEST(BenchExperimentList, CoversTheExperimentsInAFixedOrder) {
   EXPECT_EQ(all[3000].key(), "E2/paper/d0.05/none/soft/depth/s0");
   EXPECT_EQ(all[3001].key(), "E2/paper/d0.05/random/soft/depth/s0");
   EXPECT_EQ(all[3006].key(), "E2/paper/d0.1/none/soft/depth/s0");
-  EXPECT_EQ(all[6000].key(), "E4/forest50/d0.1/none/soft/depth/s0");
-  EXPECT_EQ(all.back().key(), "E4/forest50/d0.2/local_exploration/soft/depth/s19");
+  EXPECT_EQ(all[3060].key(), "E2/eth/d0.05/none/soft/depth/s0");
+  EXPECT_EQ(all[3120].key(), "E2/paper/d0.05/none/soft/depth/s1");
+  EXPECT_EQ(all[9000].key(), "E4/forest50/d0.1/none/soft/depth/s0");
+  EXPECT_EQ(all[9240].key(), "E6/paper/d0.2/none/soft/depth/s0");
+  EXPECT_EQ(all.back().key(), "E6/paper/d0.2/local_exploration/soft/depth/s19");
   EXPECT_EQ(all[0].replans, 60);
   EXPECT_EQ(all[3000].replans, 120);
-  EXPECT_EQ(all[6000].replans, 500);
+  EXPECT_EQ(all[3060].replans, 120);
+  EXPECT_EQ(all[9000].replans, 500);
+  EXPECT_EQ(all[9240].replans, 60);
   EXPECT_EQ(all[30].trial, 1);
   EXPECT_EQ(all[30].seed, 1u);
+  // Only E6 flies the dynamic obstacle.
+  for (const TrialSpec& spec : all) {
+    EXPECT_EQ(spec.dynamic_obstacle, spec.experiment == "E6") << spec.key();
+  }
 
-  // E3 is E2's trials, T1 E4's; E5 flies none.
+  // E3 is E2's trials, T1 E4's; E5 flies none; --scenario picks E2's scenario.
   std::vector<TrialSpec> e2 = list({"--experiment", "E2"});
-  ASSERT_EQ(e2.size(), 3000u);
+  ASSERT_EQ(e2.size(), 6000u);
   EXPECT_EQ(e2.front().key(), all[3000].key());
-  EXPECT_EQ(list({"--experiment", "E3"}).size(), 3000u);
-  EXPECT_EQ(list({"--experiment", "E3,E2"}).size(), 3000u);
+  EXPECT_EQ(list({"--experiment", "E3"}).size(), 6000u);
+  EXPECT_EQ(list({"--experiment", "E3,E2"}).size(), 6000u);
+  const std::vector<TrialSpec> eth = list({"--experiment", "E2", "--scenario", "eth"});
+  ASSERT_EQ(eth.size(), 3000u);
+  EXPECT_EQ(eth.front().key(), "E2/eth/d0.05/none/soft/depth/s0");
+  EXPECT_EQ(list({"--experiment", "E2", "--scenario", "paper"}).size(), 3000u);
   EXPECT_EQ(list({"--experiment", "T1"}).size(), 240u);
   EXPECT_TRUE(list({"--experiment", "E5"}).empty());
+  const std::vector<TrialSpec> e6 = list({"--experiment", "E6"});
+  ASSERT_EQ(e6.size(), 120u);
+  EXPECT_EQ(e6.front().key(), "E6/paper/d0.2/none/soft/depth/s0");
+  EXPECT_TRUE(e6.front().dynamic_obstacle);
+
+  // The smoke run's selection: every experiment at density 0.2.
+  EXPECT_EQ(list({"--density", "0.2"}).size(), 300u + 600u + 120u + 120u);
 
   // The selection narrows the list; --trials, --seed-base and --replans change it.
   const std::vector<TrialSpec> small =
-      list({"--experiment", "E2", "--method", "local_exploration,none", "--density", "0.3,0.1",
-            "--trials", "2", "--seed-base", "10", "--replans", "7"});
+      list({"--experiment", "E2", "--scenario", "paper", "--method", "local_exploration,none",
+            "--density", "0.3,0.1", "--trials", "2", "--seed-base", "10", "--replans", "7"});
   std::vector<std::string> small_keys;
   for (const TrialSpec& spec : small) {
     small_keys.push_back(spec.key());
@@ -141,6 +162,7 @@ TEST(BenchExperimentList, CoversTheExperimentsInAFixedOrder) {
                         }));
   EXPECT_EQ(list({"--experiment", "E1,E4", "--density", "0.2"}).size(), 300u + 120u);
   EXPECT_EQ(list({"--scenario", "forest50"}).size(), 240u);
+  EXPECT_EQ(list({"--scenario", "paper"}).size(), 3000u + 3000u + 120u);
 }
 
 TEST(BenchExperimentList, EveryTrialIsInExactlyOneShard) {
@@ -174,13 +196,15 @@ TEST(BenchExperiment, BadFlagsFailWithAMessageNamingTheFlag) {
   for (const char* shard : {"2/2", "-1/2", "a/2", "0/0", "1", "0/2x", "/2"}) {
     fails(std::string("--shard ") + shard, "--shard must be i/N with 0 <= i < N");
   }
-  fails("--experiment E2,E9", "unknown experiment 'E9' (known: E1, E2, E3, E4, E5, T1)");
+  fails("--experiment E2,E9", "unknown experiment 'E9' (known: E1, E2, E3, E4, E5, E6, T1)");
   fails("--experiment E2,", "--experiment 'E2,' has an empty item");
   fails("--method none,bogus", "unknown method 'bogus'");
   fails("--goal-finding curve", "unknown goal-finding variant 'curve'");
   fails("--experiment E1 --method random", "--method random is not a method of the selected");
   fails("--experiment E4 --density 0.3", "--density 0.3 is not a density of the selected");
-  fails("--scenario eth", "--scenario eth is not a scenario of the selected");
+  fails("--experiment E1,E6 --scenario eth", "--scenario eth is not a scenario of the selected");
+  fails("--scenario forest", "--scenario forest is not a scenario of the selected");
+  fails("--experiment E6 --density 0.1", "--density 0.1 is not a density of the selected");
   fails("--experiment E5 --density 0.1", "the selected experiments fly none");
   fails("--density 0.1,x", "--density 'x' is not a non-negative number");
   fails("--trials 0", "--trials must be an integer >= 1");
@@ -188,7 +212,7 @@ TEST(BenchExperiment, BadFlagsFailWithAMessageNamingTheFlag) {
   fails("--replans -3", "--replans must be an integer >= 1");
   fails("--record '('", "--record '(' is not a regular expression");
   fails("--fast", "unknown option --fast");
-  fails("--experiment E2 --worlds-dir " + tempDir("no_worlds"), "paper");
+  fails("--experiment E2 --scenario paper --worlds-dir " + tempDir("no_worlds"), "paper.yaml");
   EXPECT_EQ(bench("experiment --experiment E2").status, 2);
   EXPECT_FALSE(fs::exists(out));
 
@@ -213,7 +237,8 @@ TEST(BenchExperiment, BadFlagsFailWithAMessageNamingTheFlag) {
 // The trials of the end-to-end tests: two methods on a forest dense enough that they fly
 // different paths, two worlds each, a short replan limit.
 const std::string kSelection =
-    "--experiment E2 --method none,local_exploration --density 0.3 --trials 2 --replans 20";
+    "--experiment E2 --scenario paper --method none,local_exploration --density 0.3 --trials 2 "
+    "--replans 20";
 const std::vector<std::string> kKeys = {"E2/paper/d0.3/local_exploration/soft/depth/s0",
                                         "E2/paper/d0.3/local_exploration/soft/depth/s1",
                                         "E2/paper/d0.3/none/soft/depth/s0",
@@ -274,10 +299,12 @@ TEST_F(BenchExperimentRun, WritesTheTrialsRowsPathsAndRunLog) {
                                           "bottleneck_m",
                                           "needs_overflight",
                                           "wall_time_s",
-                                          "end_reason"};
+                                          "end_reason",
+                                          "obstacle_clearance_m",
+                                          "blocked_cycles"};
   const std::vector<std::string>& header = trials[0];
   ASSERT_GT(header.size(), fixed.size());
-  EXPECT_EQ(std::vector<std::string>(header.begin(), header.begin() + 24), fixed);
+  EXPECT_EQ(std::vector<std::string>(header.begin(), header.begin() + 26), fixed);
   EXPECT_EQ((header.size() - fixed.size()) % 3, 0u);
   for (const char* column :
        {"mapper_tsdf_insert_ms_median", "mapper_esdf_update_ms_p95",
@@ -299,6 +326,9 @@ TEST_F(BenchExperimentRun, WritesTheTrialsRowsPathsAndRunLog) {
     EXPECT_EQ(row[10], "0") << "collision";
     EXPECT_LE(std::stoi(row[13]), 20);
     EXPECT_EQ(row[goal_selection].empty(), row[5] == "none");
+    // No dynamic obstacle in E2: no clearance to it; blocked cycles are counted all the same.
+    EXPECT_EQ(row[24], "") << "obstacle_clearance_m";
+    EXPECT_GE(std::stoi(row[25]), 0) << "blocked_cycles";
     EXPECT_TRUE(fs::exists(dir() + "/paths/" + keyFileName(key) + ".csv"));
   }
   // The two methods flew differently, or this selection would not tell their rows apart.
@@ -469,48 +499,52 @@ TEST(BenchExperiment, ATrialThatCouldNotRunIsRecordedAndTriedAgain) {
   EXPECT_EQ(trials[1][0] + trials[1][5] + trials[1][6], "E1noneline");
 }
 
-TEST(BenchExperiment, MergeRefusesRowsOfAnotherProgram) {
-  const std::string input = tempDir("foreign");
-  fs::create_directories(input + "/rows");
-  writeFile(input + "/rows/shard-0-of-1.csv", "experiment,trial,seed\nE2,0,0\n");
-  const std::string out = tempDir("foreign_merged");
-  const CliResult merge = bench("merge --out " + out + " " + input);
-  EXPECT_EQ(merge.status, 1) << merge.output;
-  EXPECT_NE(merge.output.find("shard-0-of-1.csv: not a rows file"), std::string::npos)
-      << merge.output;
-  EXPECT_FALSE(fs::exists(out + "/trials.csv"));
+// Rows of another program, and of an older thicket-bench: before the planning radius's oracle
+// (their solvable means the collision radius's) and before the dynamic obstacle's columns. Neither
+// a merge nor a run (resuming) mixes them with new rows, nor appends to them.
+TEST(BenchExperiment, RowsOfAnotherProgramOrAnOlderBenchAreRefused) {
+  const std::string id =
+      "experiment,trial,seed,scenario,density,method,goal_finding,sensor,replan_limit,success,"
+      "collision,min_clearance_m,feasible,num_replans,distance_to_goal_m,path_length_m,"
+      "straight_line_m,path_time_s,solvable,";
+  const struct {
+    const char* name;
+    std::string rows;
+    std::string message;
+  } cases[] = {
+      {"foreign", "experiment,trial,seed\nE2,0,0\n", "shard-0-of-1.csv: not a rows file"},
+      {"before_planning_oracle",
+       id + "wall_time_s,end_reason,timings\n"
+            "E2,0,0,paper,0.1,none,soft,depth,120,1,0,0.9,1,12,0.1,14,13,15,1,2,goal reached,\n",
+       "shard-0-of-1.csv: rows of an older thicket-bench, whose solvable is the oracle at the "
+       "collision radius"},
+      {"before_obstacle",
+       id + "solvable_collision_radius,bottleneck_m,needs_overflight,wall_time_s,end_reason,"
+            "timings\n"
+            "E2,0,0,paper,0.1,none,soft,depth,120,1,0,0.9,1,12,0.1,14,13,15,1,1,0.8,0,2,goal "
+            "reached,\n",
+       "shard-0-of-1.csv: rows of an older thicket-bench, written before the dynamic obstacle "
+       "(E6), which lack obstacle_clearance_m and blocked_cycles; they cannot be resumed or "
+       "merged"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::string input = tempDir(std::string("old_rows_") + c.name);
+    const std::string merged = tempDir(std::string("old_merged_") + c.name);
+    fs::create_directories(input + "/rows");
+    writeFile(input + "/rows/shard-0-of-1.csv", c.rows);
+    const CliResult merge = bench("merge --out " + merged + " " + input);
+    EXPECT_EQ(merge.status, 1) << merge.output;
+    EXPECT_NE(merge.output.find(c.message), std::string::npos) << merge.output;
+    EXPECT_FALSE(fs::exists(merged + "/trials.csv"));
 
-  // Nor does a run append to it.
-  const CliResult run = bench(
-      "experiment --experiment E2 --method none --density 0.1 --trials 1 "
-      "--out " +
-      input);
-  EXPECT_EQ(run.status, 1) << run.output;
-  EXPECT_NE(run.output.find("not a rows file"), std::string::npos) << run.output;
-}
-
-// Rows of a thicket-bench before the planning radius's oracle: their solvable means the collision
-// radius's, so neither a resume nor a merge mixes them with new rows.
-TEST(BenchExperiment, RowsWithoutThePlanningOracleAreRefused) {
-  const std::string input = tempDir("old_rows");
-  fs::create_directories(input + "/rows");
-  writeFile(input + "/rows/shard-0-of-1.csv",
-            "experiment,trial,seed,scenario,density,method,goal_finding,sensor,replan_limit,"
-            "success,collision,min_clearance_m,feasible,num_replans,distance_to_goal_m,"
-            "path_length_m,straight_line_m,path_time_s,solvable,wall_time_s,end_reason,timings\n"
-            "E2,0,0,paper,0.1,none,soft,depth,120,1,0,0.9,1,12,0.1,14,13,15,1,2,goal reached,\n");
-  const std::string message =
-      "shard-0-of-1.csv: rows of an older thicket-bench, whose solvable is the oracle at the "
-      "collision radius";
-  const CliResult merge = bench("merge --out " + tempDir("old_merged") + " " + input);
-  EXPECT_EQ(merge.status, 1) << merge.output;
-  EXPECT_NE(merge.output.find(message), std::string::npos) << merge.output;
-  EXPECT_FALSE(fs::exists(tempDir("old_merged") + "/trials.csv"));
-
-  const CliResult run =
-      bench("experiment --experiment E2 --method none --density 0.1 --trials 1 --out " + input);
-  EXPECT_EQ(run.status, 1) << run.output;
-  EXPECT_NE(run.output.find(message), std::string::npos) << run.output;
+    const CliResult run = bench(
+        "experiment --experiment E2 --scenario paper --method none --density 0.1 --trials 1 "
+        "--out " +
+        input);
+    EXPECT_EQ(run.status, 1) << run.output;
+    EXPECT_NE(run.output.find(c.message), std::string::npos) << run.output;
+  }
 }
 
 }  // namespace

@@ -3,15 +3,18 @@
 // output folder whose every number is known.
 #include "report.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -62,6 +65,8 @@ struct Row {
   double length = 10;
   double path_time = 10, wall_time = 2;
   std::string end_reason = "replan limit";
+  std::optional<double> obstacle_clearance;  // the dynamic obstacle's, when it appeared
+  int blocked_cycles = 0;
   std::map<std::string, std::array<double, 3>> timings;  // median, p95, max [ms]
 };
 
@@ -82,15 +87,21 @@ WorldOracle worldOracle(const Row& r) {
           r.seed < 5 ? bottlenecks[dense][r.seed] : 0.6 + 0.05 * (r.seed - 5)};
 }
 
-// `old`: a trials.csv of a thicket-bench before the planning radius's oracle, whose solvable is
-// the collision radius's and which has no other oracle column.
-std::string header(bool old = false) {
+// The trials.csv of this thicket-bench, or of an older one: before the dynamic obstacle's
+// columns, or also before the planning radius's oracle (whose solvable is the collision
+// radius's and which has no other oracle column).
+enum class Format { kCurrent, kBeforeObstacle, kBeforePlanningOracle };
+
+std::string header(Format format = Format::kCurrent) {
   std::string text =
       "experiment,trial,seed,scenario,density,method,goal_finding,sensor,replan_limit,success,"
       "collision,min_clearance_m,feasible,num_replans,distance_to_goal_m,path_length_m,"
       "straight_line_m,path_time_s,solvable,";
-  text += old ? "" : "solvable_collision_radius,bottleneck_m,needs_overflight,";
+  if (format != Format::kBeforePlanningOracle) {
+    text += "solvable_collision_radius,bottleneck_m,needs_overflight,";
+  }
   text += "wall_time_s,end_reason";
+  if (format == Format::kCurrent) text += ",obstacle_clearance_m,blocked_cycles";
   for (const std::string& stage : kStages) {
     text += "," + stage + "_ms_median," + stage + "_ms_p95," + stage + "_ms_max";
   }
@@ -103,7 +114,7 @@ std::string quoted(const std::string& text) {
   return out + "\"";
 }
 
-std::string line(const Row& r, bool old = false) {
+std::string line(const Row& r, Format format = Format::kCurrent) {
   const WorldOracle oracle = worldOracle(r);
   char density[32];
   std::snprintf(density, sizeof(density), "%g", r.density);
@@ -112,13 +123,18 @@ std::string line(const Row& r, bool old = false) {
     << r.method << "," << r.goal_finding << "," << r.sensor << "," << r.replan_limit << ","
     << r.success << "," << r.collision << "," << r.clearance << ",1,12," << (r.success ? 0.1 : 5.0)
     << "," << r.length << ",13," << r.path_time << ",";
-  if (old) {
+  if (format == Format::kBeforePlanningOracle) {
     s << oracle.solvable_collision << ",";
   } else {
     s << oracle.solvable << "," << oracle.solvable_collision << "," << oracle.bottleneck << ","
       << oracle.overflight << ",";
   }
   s << r.wall_time << "," << quoted(r.end_reason);
+  if (format == Format::kCurrent) {
+    s << ",";
+    if (r.obstacle_clearance) s << *r.obstacle_clearance;
+    s << "," << r.blocked_cycles;
+  }
   for (const std::string& stage : kStages) {
     const auto found = r.timings.find(stage);
     for (int k = 0; k < 3; ++k) {
@@ -225,6 +241,64 @@ std::vector<Row> e2Rows() {
   return rows;
 }
 
+// E2 on eth at 0.1, seeds 0..3: random succeeds on seeds 0, 1 (16, 18 m), local_exploration on
+// seeds 0, 1, 2 (14, 15, 16 m) and collides on seed 3 (clearance 0.45).
+std::vector<Row> e2EthRows() {
+  std::vector<Row> rows;
+  const std::map<std::string, std::vector<double>> lengths = {{"random", {16, 18}},
+                                                              {"local_exploration", {14, 15, 16}}};
+  for (const auto& [method, successes] : lengths) {
+    for (int seed = 0; seed < 4; ++seed) {
+      Row r;
+      r.scenario = "eth";
+      r.method = method;
+      r.trial = seed;
+      r.seed = seed;
+      r.success = seed < static_cast<int>(successes.size());
+      r.length = r.success ? successes[static_cast<size_t>(seed)] : 99;
+      r.end_reason = r.success ? "goal reached" : "replan limit";
+      if (method == "local_exploration" && seed == 3) {
+        r.collision = true;
+        r.clearance = 0.45;
+        r.end_reason = "collision";
+      }
+      rows.push_back(r);
+    }
+  }
+  return rows;
+}
+
+// E6 on paper at 0.2, seeds 0..2, the dynamic obstacle's clearance (empty: it never appeared)
+// and blocked cycles:
+//   none: 0.9/2 (success), 0.7/1, -/0.
+//   local_exploration: 0.8/3, 0.6/1, 0.55/2, every one a success.
+//   rrt_star_optimistic: 0.3/0 (touched it: a collision), 0.9/1, -/0.
+std::vector<Row> e6Rows() {
+  std::vector<Row> rows;
+  const std::map<std::string, std::vector<std::pair<std::optional<double>, int>>> obstacle = {
+      {"none", {{0.9, 2}, {0.7, 1}, {std::nullopt, 0}}},
+      {"local_exploration", {{0.8, 3}, {0.6, 1}, {0.55, 2}}},
+      {"rrt_star_optimistic", {{0.3, 0}, {0.9, 1}, {std::nullopt, 0}}}};
+  for (const auto& [method, trials] : obstacle) {
+    for (int seed = 0; seed < 3; ++seed) {
+      Row r;
+      r.experiment = "E6";
+      r.method = method;
+      r.density = 0.2;
+      r.trial = seed;
+      r.seed = seed;
+      r.replan_limit = 60;
+      std::tie(r.obstacle_clearance, r.blocked_cycles) = trials[static_cast<size_t>(seed)];
+      r.clearance = std::min(0.8, r.obstacle_clearance.value_or(0.8));
+      r.collision = r.clearance < 0.5;
+      r.success = method == "local_exploration" || (method == "none" && seed == 0);
+      r.end_reason = r.collision ? "collision" : r.success ? "goal reached" : "replan limit";
+      rows.push_back(r);
+    }
+  }
+  return rows;
+}
+
 // Trial i (0..7) of E4 has mapper_tsdf_insert median 1 + i, p95 2 + 2i, max 10 + i except one
 // max of 99; local_exploration trials also have explorer_goal_selection (median 0.5 + i).
 std::vector<Row> e4Rows() {
@@ -288,12 +362,12 @@ void writePath(const std::string& path, double offset) {
 
 class BenchReport : public thicket::testing::TempDirTest {
  protected:
-  // The whole folder: trials.csv of E1, E2 and E4, paths of E4 at 0.2 (seed 0 flown by none
-  // only, seed 1 by both methods), run_log.csv and e5_subsampling.csv.
+  // The whole folder: trials.csv of E1, E2 (paper and eth), E4 and E6, paths of E4 at 0.2 (seed
+  // 0 flown by none only, seed 1 by both methods), run_log.csv and e5_subsampling.csv.
   std::string writeFolder() {
     const std::string out = tempPath("out");
     std::string text = header();
-    for (const auto& rows : {e1Rows(), e2Rows(), e4Rows()}) {
+    for (const auto& rows : {e1Rows(), e2Rows(), e2EthRows(), e4Rows(), e6Rows()}) {
       for (const Row& r : rows) text += line(r);
     }
     write(out + "/trials.csv", text);
@@ -311,6 +385,20 @@ class BenchReport : public thicket::testing::TempDirTest {
           "0.05,20,1000,0.0102,0.03,0.08,30,3\n"
           "0.5,2,1000,0.002,0.005,0.01,50,1.8\n");
     return out;
+  }
+
+  // The summary of a trials.csv in an older `format` of `rows` and E2's rows; empty when the
+  // report fails.
+  std::string oldReport(Format format, const std::vector<Row>& rows) {
+    const std::string out = tempPath("old");
+    std::string text = header(format);
+    for (const auto& group : {rows, e2Rows()}) {
+      for (const Row& r : group) text += line(r, format);
+    }
+    write(out + "/trials.csv", text);
+    const std::string error = writeReport(out);
+    EXPECT_EQ(error, "");
+    return error.empty() ? read(out + "/summary.md") : "";
   }
 };
 
@@ -406,14 +494,16 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   const std::string md = read(out + "/summary.md");
   ASSERT_FALSE(md.empty());
 
-  // Contents: trials per experiment, those that could not run listed by key.
+  // Contents: trials per experiment and scenario, those that could not run listed by key.
   const Table contents = tableAfter(md, "## Contents");
-  EXPECT_EQ(cell(contents, "E1", "trials"), "31");
-  EXPECT_EQ(cell(contents, "E1", "could not run"), "1");
-  EXPECT_EQ(cell(contents, "E2", "trials"), "42");
-  EXPECT_EQ(cell(contents, "E2", "ran"), "40");
-  EXPECT_EQ(cell(contents, "E4", "scenarios"), "forest50");
-  EXPECT_EQ(cell(contents, "E4", "could not run"), "1");
+  EXPECT_EQ(cell(contents, "E1/paper", "trials"), "31");
+  EXPECT_EQ(cell(contents, "E1/paper", "could not run"), "1");
+  EXPECT_EQ(cell(contents, "E2/paper", "trials"), "42");
+  EXPECT_EQ(cell(contents, "E2/paper", "ran"), "40");
+  EXPECT_EQ(cell(contents, "E2/eth", "trials"), "8");
+  EXPECT_EQ(cell(contents, "E4/forest50", "could not run"), "1");
+  EXPECT_EQ(cell(contents, "E6/paper", "trials"), "9");
+  EXPECT_EQ(contents.size(), 6u);
   for (const char* key :
        {"E1/paper/d0.1/none/line/depth/s10", "E2/paper/d0.2/random/soft/depth/s5",
         "E2/paper/d0.2/local_exploration/soft/depth/s5", "E4/forest50/d0.2/none/soft/depth/s2"}) {
@@ -426,22 +516,35 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   EXPECT_EQ(runs[1][7], "Intel(R) Xeon(R), 2.2GHz");
   EXPECT_EQ(runs[1][8], "2");
 
-  // Throughput: every trial that ran flew 10 s in 2 s; the run took 100 s for 78 trials' 780 s.
+  // Throughput: every trial that ran flew 10 s in 2 s; the run took 100 s for 95 trials' 950 s.
   const Table throughput = tableAfter(md, "## Throughput");
-  EXPECT_EQ(cell(throughput, "all", "simulated [s]"), "780");
-  EXPECT_EQ(cell(throughput, "E2", "simulated s per wall s, per thread"), "5.00");
-  EXPECT_NE(md.find("7.80 simulated s per wall s"), std::string::npos);
+  EXPECT_EQ(cell(throughput, "all", "simulated [s]"), "950");
+  EXPECT_EQ(cell(throughput, "E2/paper", "simulated [s]"), "400");
+  EXPECT_EQ(cell(throughput, "E2/eth", "simulated [s]"), "80");
+  EXPECT_EQ(cell(throughput, "E2/paper", "simulated s per wall s, per thread"), "5.00");
+  EXPECT_NE(md.find("9.50 simulated s per wall s"), std::string::npos);
 
-  // Safety: the conservative trials that ran per experiment; nbvp's collision is listed, the
-  // collision of rrt_star_optimistic (allowed to plan through unknown space) is not.
+  // Safety: the conservative trials that ran per experiment and scenario; the collisions of nbvp
+  // and of local_exploration on eth are listed, those of rrt_star_optimistic (allowed to plan
+  // through unknown space) are not.
   const Table safety = tableAfter(md, "## Safety: collisions of the conservative methods");
-  EXPECT_EQ(cell(safety, "E2", "conservative trials"), "30");
-  EXPECT_EQ(cell(safety, "E2", "collisions"), "1");
-  EXPECT_EQ(cell(safety, "E2", "smallest executed clearance [m]"), "0.4988");
-  EXPECT_EQ(cell(safety, "E1", "collisions"), "0");
-  EXPECT_EQ(cell(safety, "all", "collisions"), "1");
+  EXPECT_EQ(cell(safety, "E2/paper", "conservative trials"), "30");
+  EXPECT_EQ(cell(safety, "E2/paper", "collisions"), "1");
+  EXPECT_EQ(cell(safety, "E2/paper", "smallest executed clearance [m]"), "0.4988");
+  EXPECT_EQ(cell(safety, "E2/eth", "conservative trials"), "8");
+  EXPECT_EQ(cell(safety, "E2/eth", "collisions"), "1");
+  EXPECT_EQ(cell(safety, "E2/eth", "smallest executed clearance [m]"), "0.4500");
+  EXPECT_EQ(cell(safety, "E1/paper", "collisions"), "0");
+  // E6: none and local_exploration, 6 trials; the closest came to the dynamic obstacle.
+  EXPECT_EQ(cell(safety, "E6/paper", "conservative trials"), "6");
+  EXPECT_EQ(cell(safety, "E6/paper", "collisions"), "0");
+  EXPECT_EQ(cell(safety, "E6/paper", "smallest executed clearance [m]"), "0.5500");
+  EXPECT_EQ(cell(safety, "all", "collisions"), "2");
   EXPECT_NE(md.find("- `E2/paper/d0.1/nbvp/soft/depth/s1` (0.4988 m)"), std::string::npos);
+  EXPECT_NE(md.find("- `E2/eth/d0.1/local_exploration/soft/depth/s3` (0.4500 m)"),
+            std::string::npos);
   EXPECT_EQ(md.find("- `E2/paper/d0.1/rrt_star_optimistic/soft/depth/s0` ("), std::string::npos);
+  EXPECT_EQ(md.find("- `E6/paper/d0.2/rrt_star_optimistic/soft/depth/s0` ("), std::string::npos);
 
   // E1: line 8/10 = 80 % [49, 94] at 0.1 (the trial that could not run is not counted).
   const Table e1 = tableAfter(md, "## E1: optimization only, success per goal finding and density");
@@ -452,27 +555,29 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   EXPECT_SUCCESS(cell(e1, "0.1", "soft"), 10, 10, 100, 72, 100);
   EXPECT_EQ(cell(e1, "0.2", "soft"), "–");
 
-  // Worlds: each (scenario, density, seed) once, whichever experiments flew it (E1 and E2 share
-  // paper's seeds 0-4; the trials that could not run are no world).
+  // Worlds: each (scenario, density, seed) once, whichever experiments flew it (E1, E2 and E6
+  // share paper's seeds; the trials that could not run are no world).
   const Table worlds = tableAfter(md, "## Worlds: what the oracle says");
-  ASSERT_EQ(worlds.size(), 5u);
-  EXPECT_EQ(worlds[1], (std::vector<std::string>{"forest50", "0.1", "2", "2", "2", "0", "1.000"}));
-  EXPECT_EQ(worlds[2][2], "2");
+  ASSERT_EQ(worlds.size(), 6u);
+  EXPECT_EQ(worlds[1], (std::vector<std::string>{"eth", "0.1", "4", "4", "4", "0", "1.000"}));
+  EXPECT_EQ(worlds[2], (std::vector<std::string>{"forest50", "0.1", "2", "2", "2", "0", "1.000"}));
+  EXPECT_EQ(worlds[3][2], "2");
   // paper 0.1, seeds 0-9: bottlenecks 0.45 0.5 0.6 0.65 0.7 0.7 0.75 0.8 0.8 0.9.
-  EXPECT_EQ(worlds[3], (std::vector<std::string>{"paper", "0.1", "10", "9", "9", "1", "0.700"}));
+  EXPECT_EQ(worlds[4], (std::vector<std::string>{"paper", "0.1", "10", "9", "9", "1", "0.700"}));
   // paper 0.2: seed 3 solvable at the collision radius only.
-  EXPECT_EQ(worlds[4], (std::vector<std::string>{"paper", "0.2", "10", "8", "9", "1", "0.650"}));
+  EXPECT_EQ(worlds[5], (std::vector<std::string>{"paper", "0.2", "10", "8", "9", "1", "0.650"}));
   EXPECT_EQ(md.find("Unknown here"), std::string::npos);
 
-  // E2: success per method and density, collisions, success on solvable worlds, path lengths.
+  // E2 on paper: success per method and density, collisions, success on solvable worlds, path
+  // lengths; eth's trials are not in paper's tables.
   const Table e2 =
-      tableAfter(md, "## E2: goal-selection strategies, success per method and density");
+      tableAfter(md, "## E2: goal-selection strategies on paper, success per method and density");
   EXPECT_EQ(e2[0], (std::vector<std::string>{"density", "random", "rrt_star_optimistic", "nbvp",
                                              "local_exploration"}));
   EXPECT_SUCCESS(cell(e2, "0.1", "random"), 4, 5, 80, 38, 96);
   EXPECT_SUCCESS(cell(e2, "0.2", "local_exploration"), 2, 5, 40, 12, 77);
   EXPECT_SUCCESS(cell(e2, "0.2", "rrt_star_optimistic"), 0, 5, 0, 0, 43);
-  const Table per_method = tableAfter(md, "### Per method, all densities");
+  const Table per_method = tableAfter(md, "### Per method, all densities (paper)");
   EXPECT_EQ(cell(per_method, "rrt_star_optimistic", "collisions"), "1");
   EXPECT_EQ(cell(per_method, "nbvp", "collisions"), "1");
   EXPECT_EQ(cell(per_method, "nbvp", "zero-collision target"), "MISSED");
@@ -494,15 +599,39 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   // random's successful lengths 20, 22, 24, 26, 30, 34: thicket::median takes the upper middle.
   EXPECT_EQ(cell(per_method, "random", "median path length [m]"), "26.00");
   EXPECT_EQ(cell(per_method, "local_exploration", "median path length [m]"), "18.00");
-  const Table planning = tableAfter(md, "### Success on worlds solvable at the planning radius");
+  const Table planning =
+      tableAfter(md, "### Success on worlds solvable at the planning radius (paper)");
   EXPECT_SUCCESS(cell(planning, "0.1", "local_exploration"), 3, 4, 75, 30, 95);
   EXPECT_SUCCESS(cell(planning, "0.2", "random"), 2, 3, 67, 21, 94);
-  const Table collision = tableAfter(md, "### Success on worlds solvable at the collision radius");
+  const Table collision =
+      tableAfter(md, "### Success on worlds solvable at the collision radius (paper)");
   EXPECT_SUCCESS(cell(collision, "0.1", "random"), 4, 4, 100, 51, 100);
   EXPECT_SUCCESS(cell(collision, "0.2", "random"), 2, 4, 50, 15, 85);
 
-  // E3: only the worlds both solved.
-  const Table e3 = tableAfter(md, "## E3: path length, random vs local_exploration");
+  // E2 on eth: its own tables, after paper's.
+  EXPECT_LT(md.find("## E2: goal-selection strategies on paper"),
+            md.find("## E2: goal-selection strategies on eth"));
+  const Table eth =
+      tableAfter(md, "## E2: goal-selection strategies on eth, success per method and density");
+  EXPECT_EQ(eth[0], (std::vector<std::string>{"density", "random", "local_exploration"}));
+  ASSERT_EQ(eth.size(), 2u);
+  EXPECT_SUCCESS(cell(eth, "0.1", "random"), 2, 4, 50, 15, 85);
+  EXPECT_SUCCESS(cell(eth, "0.1", "local_exploration"), 3, 4, 75, 30, 95);
+  const Table eth_per_method = tableAfter(md, "### Per method, all densities (eth)");
+  EXPECT_EQ(cell(eth_per_method, "local_exploration", "collisions"), "1");
+  EXPECT_EQ(cell(eth_per_method, "local_exploration", "zero-collision target"), "MISSED");
+  EXPECT_EQ(cell(eth_per_method, "random", "median path length [m]"), "18.00");
+  EXPECT_EQ(cell(eth_per_method, "random", "solvable at planning radius"), "4");
+  EXPECT_SUCCESS(cell(tableAfter(md, "### Success on worlds solvable at the planning radius (eth)"),
+                      "0.1", "random"),
+                 2, 4, 50, 15, 85);
+  EXPECT_SUCCESS(
+      cell(tableAfter(md, "### Success on worlds solvable at the collision radius (eth)"), "0.1",
+           "local_exploration"),
+      3, 4, 75, 30, 95);
+
+  // E3: only the worlds both solved, on paper (the figure's) and on eth.
+  const Table e3 = tableAfter(md, "### E3 on paper");
   EXPECT_EQ(cell(e3, "0.1", "worlds both solved"), "3");
   EXPECT_EQ(cell(e3, "0.1", "random mean [m]"), "24.00");
   EXPECT_EQ(cell(e3, "0.1", "local_exploration mean [m]"), "16.00");
@@ -513,6 +642,14 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   EXPECT_EQ(cell(e3, "all", "local_exploration mean [m]"), "18.25");
   EXPECT_NEAR(number(cell(e3, "all", "ratio (local_exploration / random)")), 18.25 / 25.5, 5e-4);
   EXPECT_EQ(cell(e3, "all", "local_exploration shorter by"), "28.4 %");
+  EXPECT_NE(md.find("## E3: path length, random vs local_exploration"), std::string::npos);
+  const Table e3_eth = tableAfter(md, "### E3 on eth");
+  EXPECT_EQ(cell(e3_eth, "all", "worlds both solved"), "2");
+  EXPECT_EQ(cell(e3_eth, "all", "random mean [m]"), "17.00");
+  EXPECT_EQ(cell(e3_eth, "all", "local_exploration mean [m]"), "14.50");
+  EXPECT_EQ(read(out + "/figures/e3_path_length.csv"),
+            "density,pairs,random_mean_m,local_exploration_mean_m\n"
+            "0.1,3,24.000000,16.000000\n0.2,1,30.000000,25.000000\n");
 
   // E4: per method and density; none succeeds on seed 0 only.
   const Table e4 = tableAfter(md, "## E4: long forest, success per method");
@@ -543,6 +680,28 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   EXPECT_EQ(e5[1][0], "0.05");
   EXPECT_EQ(cell(e5, "0.05", "mean abs error"), "0.0102");
   EXPECT_EQ(cell(e5, "0.05", "speed-up"), "3.00×");
+
+  // E6: per method; the median of blocked cycles is over the trials in which the obstacle
+  // appeared (thicket::median takes the upper middle of an even count).
+  const Table e6 = tableAfter(md, "### E6 on paper, density 0.2");
+  ASSERT_EQ(e6.size(), 4u);
+  EXPECT_EQ(e6[0], (std::vector<std::string>{"method", "trials", "obstacle appeared", "touched it",
+                                             "collisions", "success",
+                                             "smallest clearance to the obstacle [m]",
+                                             "with a blocked cycle", "median blocked cycles"}));
+  EXPECT_EQ(e6[1], (std::vector<std::string>{"none", "3", "2", "0", "0", "1/3 = 33 % [6, 79]",
+                                             "0.7000", "2", "2"}));
+  EXPECT_EQ(cell(e6, "rrt_star_optimistic", "obstacle appeared"), "2");
+  EXPECT_EQ(cell(e6, "rrt_star_optimistic", "touched it"), "1");
+  EXPECT_EQ(cell(e6, "rrt_star_optimistic", "collisions"), "1");
+  EXPECT_EQ(cell(e6, "rrt_star_optimistic", "smallest clearance to the obstacle [m]"), "0.3000");
+  EXPECT_EQ(cell(e6, "rrt_star_optimistic", "median blocked cycles"), "1");
+  EXPECT_EQ(cell(e6, "local_exploration", "obstacle appeared"), "3");
+  EXPECT_EQ(cell(e6, "local_exploration", "touched it"), "0");
+  EXPECT_EQ(cell(e6, "local_exploration", "smallest clearance to the obstacle [m]"), "0.5500");
+  EXPECT_EQ(cell(e6, "local_exploration", "with a blocked cycle"), "3");
+  EXPECT_EQ(cell(e6, "local_exploration", "median blocked cycles"), "2");
+  EXPECT_SUCCESS(cell(e6, "local_exploration", "success"), 3, 3, 100, 44, 100);
   EXPECT_EQ(md.find("## Problems"), std::string::npos);
 }
 
@@ -556,8 +715,9 @@ TEST_F(BenchReport, DrawsEveryFigureAsPng) {
   const std::string out = writeFolder();
   ASSERT_EQ(writeReport(out), "");
   const std::string md = read(out + "/summary.md");
-  for (const char* figure : {"e1_success.png", "e2_success.png", "e3_path_length.png",
-                             "e4_success.png", "e4_forest.png", "e5_subsampling.png"}) {
+  for (const char* figure :
+       {"e1_success.png", "e2_success.png", "e2_success_eth.png", "e3_path_length.png",
+        "e4_success.png", "e4_forest.png", "e5_subsampling.png"}) {
     SCOPED_TRACE(figure);
     const std::string path = out + "/figures/" + figure;
     ASSERT_TRUE(std::filesystem::exists(path));
@@ -583,17 +743,25 @@ TEST_F(BenchReport, AbsentExperimentsAreOmitted) {
   std::string text = header();
   for (const Row& r : e1Rows()) text += line(r);
   write(out + "/trials.csv", text);
+  // An earlier report's figures go, whatever E2's scenarios were; other files stay.
+  for (const char* stale : {"e2_success_eth.png", "e2_success_eth.csv", "e2_success.csv"}) {
+    write(out + "/figures/" + stale, "stale");
+  }
+  write(out + "/figures/notes.txt", "mine");
   ASSERT_EQ(writeReport(out), "");
   const std::string md = read(out + "/summary.md");
   EXPECT_NE(md.find("## E1:"), std::string::npos);
-  for (const char* section : {"## E2", "## E3", "## E4", "## T1", "## E5", "### Invocations"}) {
+  for (const char* section :
+       {"## E2", "## E3", "## E4", "## T1", "## E5", "## E6", "### Invocations"}) {
     EXPECT_EQ(md.find(section), std::string::npos) << section;
   }
   EXPECT_TRUE(isPng(out + "/figures/e1_success.png"));
-  for (const char* figure : {"e2_success.png", "e3_path_length.png", "e4_success.png",
-                             "e4_forest.png", "e5_subsampling.png"}) {
+  for (const char* figure :
+       {"e2_success.png", "e2_success.csv", "e2_success_eth.png", "e2_success_eth.csv",
+        "e3_path_length.png", "e4_success.png", "e4_forest.png", "e5_subsampling.png"}) {
     EXPECT_FALSE(std::filesystem::exists(out + "/figures/" + figure)) << figure;
   }
+  EXPECT_EQ(read(out + "/figures/notes.txt"), "mine");
 }
 
 TEST_F(BenchReport, SummaryIsWrittenWhenFiguresFail) {
@@ -713,7 +881,7 @@ std::string replaceCell(const std::string& row, size_t column, const std::string
   std::string cell;
   std::istringstream s(row.substr(0, row.size() - 1));
   while (std::getline(s, cell, ',')) cells.push_back(cell);
-  cells.resize(30);  // getline drops the empty cells at the end
+  cells.resize(32);  // getline drops the empty cells at the end
   cells[column] = value;
   std::string text;
   for (size_t i = 0; i < cells.size(); ++i) text += (i ? "," : "") + cells[i];
@@ -738,7 +906,10 @@ TEST_F(BenchReport, BadTrialCellsNameLineAndColumn) {
       {15, "", "line 3, column 16 (path_length_m): '' is not a finite number"},
       {9, "2", "line 3, column 10 (success): '2' is not 0 or 1"},
       {13, "1.5", "line 3, column 14 (num_replans): '1.5' is not an integer"},
-      {29, "x", "line 3, column 30 (mapper_tsdf_insert_ms_max): 'x' is not a finite number"},
+      {31, "x", "line 3, column 32 (mapper_tsdf_insert_ms_max): 'x' is not a finite number"},
+      {24, "near", "line 3, column 25 (obstacle_clearance_m): 'near' is not a finite number"},
+      {25, "1.5", "line 3, column 26 (blocked_cycles): '1.5' is not an integer"},
+      {25, "", "line 3, column 26 (blocked_cycles): '' is not an integer"},
       {20, "0.5m", "line 3, column 21 (bottleneck_m): '0.5m' is not a finite number"},
       {21, "", "line 3, column 22 (needs_overflight): '' is not 0 or 1"},
       {4, "0.1e", "line 3, column 5 (density): '0.1e' is not a finite number"},
@@ -764,6 +935,11 @@ TEST_F(BenchReport, RefusesMissingColumnsAndRepeatedTrials) {
   text.replace(text.find("bottleneck_m,"), 13, "");
   write(out + "/trials.csv", text);
   EXPECT_EQ(writeReport(out), out + "/trials.csv: the header has no column bottleneck_m");
+  // So do the dynamic obstacle's.
+  text = header();
+  text.replace(text.find("obstacle_clearance_m,"), 21, "");
+  write(out + "/trials.csv", text);
+  EXPECT_EQ(writeReport(out), out + "/trials.csv: the header has no column obstacle_clearance_m");
 
   Row r;
   write(out + "/trials.csv", header() + line(r) + line(r));
@@ -775,25 +951,20 @@ TEST_F(BenchReport, RefusesMissingColumnsAndRepeatedTrials) {
 // A trials.csv of a thicket-bench before the planning radius's oracle (docs/results has one): its
 // solvable is the collision radius's; the planning radius's columns are unknown, and said so.
 TEST_F(BenchReport, OldTrialsWithoutThePlanningOracleAreReadAsUnknown) {
-  const std::string out = tempPath("old");
-  std::string text = header(true);
-  for (const auto& rows : {e1Rows(), e2Rows()}) {
-    for (const Row& r : rows) text += line(r, true);
-  }
-  write(out + "/trials.csv", text);
-  ASSERT_EQ(writeReport(out), "");
-  const std::string md = read(out + "/summary.md");
+  const std::string md = oldReport(Format::kBeforePlanningOracle, e1Rows());
 
   const Table worlds = tableAfter(md, "## Worlds: what the oracle says");
   EXPECT_EQ(worlds[2], (std::vector<std::string>{"paper", "0.2", "10", "–", "9", "–", "–"}));
-  const Table per_method = tableAfter(md, "### Per method, all densities");
+  const Table per_method = tableAfter(md, "### Per method, all densities (paper)");
   EXPECT_EQ(cell(per_method, "random", "solvable at planning radius"), "–");
   EXPECT_EQ(cell(per_method, "random", "success on solvable at planning radius"), "–");
   EXPECT_EQ(cell(per_method, "random", "solvable at collision radius"), "8");
   EXPECT_SUCCESS(cell(per_method, "random", "success on solvable at collision radius"), 6, 8, 75,
                  41, 93);
-  EXPECT_TRUE(tableAfter(md, "### Success on worlds solvable at the planning radius").empty());
-  const Table collision = tableAfter(md, "### Success on worlds solvable at the collision radius");
+  EXPECT_TRUE(
+      tableAfter(md, "### Success on worlds solvable at the planning radius (paper)").empty());
+  const Table collision =
+      tableAfter(md, "### Success on worlds solvable at the collision radius (paper)");
   EXPECT_SUCCESS(cell(collision, "0.2", "random"), 2, 4, 50, 15, 85);
   // Said in the worlds section, the per-method table and the planning radius's matrix.
   size_t notes = 0;
@@ -802,6 +973,23 @@ TEST_F(BenchReport, OldTrialsWithoutThePlanningOracleAreReadAsUnknown) {
     ++notes;
   }
   EXPECT_EQ(notes, 3u);
+}
+
+// A trials.csv of a thicket-bench before the dynamic obstacle's columns: what E6 measures of the
+// obstacle is unknown, and said so; the rest of the report is as usual.
+TEST_F(BenchReport, TrialsWithoutTheObstacleColumnsAreReadAsUnknown) {
+  const std::string md = oldReport(Format::kBeforeObstacle, e6Rows());
+  const Table e6 = tableAfter(md, "### E6 on paper, density 0.2");
+  EXPECT_EQ(cell(e6, "rrt_star_optimistic", "collisions"), "1");
+  for (const char* column :
+       {"obstacle appeared", "touched it", "smallest clearance to the obstacle [m]",
+        "with a blocked cycle", "median blocked cycles"}) {
+    EXPECT_EQ(cell(e6, "local_exploration", column), "–") << column;
+  }
+  EXPECT_NE(md.find("Unknown here: this trials.csv has no column blocked_cycles"),
+            std::string::npos);
+  EXPECT_SUCCESS(cell(tableAfter(md, "### Per method, all densities (paper)"), "random", "success"),
+                 6, 10, 60, 31, 83);
 }
 
 TEST_F(BenchReport, BadRunLogIsReportedButTheSummaryWritten) {

@@ -114,7 +114,9 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
                                                   "bottleneck_m",
                                                   "needs_overflight",
                                                   "wall_time_s",
-                                                  "end_reason"};
+                                                  "end_reason",
+                                                  "obstacle_clearance_m",
+                                                  "blocked_cycles"};
   const std::vector<std::string>& header = rows[0];
   ASSERT_GT(header.size(), fixed_columns.size());
   EXPECT_EQ(std::vector<std::string>(
@@ -154,6 +156,7 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
     EXPECT_LE(std::stoi(cell["num_replans"]), 40);
     EXPECT_NEAR(std::stod(cell["straight_line_m"]), 13.0, 1e-4);
     EXPECT_NE(cell["mapper_tsdf_insert_ms_median"], "");
+    EXPECT_EQ(cell["obstacle_clearance_m"], "");  // no dynamic obstacle by default
 
     const sim::World world = paperWorld(static_cast<uint64_t>(7 + trial));
     checkPath(out + "/paths/" + std::to_string(trial) + ".csv", world,
@@ -176,6 +179,8 @@ TEST(BenchRun, BadFlagsFailWithAMessage) {
   fails("--density 0.05 --trials 2 --goal-finding curve" + out,
         "unknown goal-finding variant 'curve'");
   fails("--density 0.05 --trials 2 --fast 1" + out, "unknown option --fast");
+  fails("--density 0.05 --trials 2 --dynamic-obstacle yes" + out,
+        "--dynamic-obstacle must be on or off, not 'yes'");
   fails("--density 0.05 --trials 2 --scenario nowhere" + out, "nowhere");
   EXPECT_FALSE(std::filesystem::exists(tempDir("refused")));
 

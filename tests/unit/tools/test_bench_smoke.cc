@@ -2,7 +2,8 @@
 // missions, run by `thicket-bench experiment` as a user runs it (the ctest bench_smoke_run, into
 // BENCH_SMOKE_DIR: its exit status says every trial ran), and here the invariants that must hold
 // whatever the numbers: every trial finished, no collision for a conservative strategy, a success
-// really ends at the goal, and every output (rows, paths, E5 table, summary, figures) well formed.
+// really ends at the goal, a conservative strategy stops short of E6's dynamic obstacle, and every
+// output (rows, paths, E5 table, summary, figures) well formed.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "csv.h"
+#include "thicket/sim/world.h"
 #include "trials.h"
 
 namespace thicket::bench {
@@ -54,22 +56,26 @@ std::vector<std::map<std::string, std::string>> trials() {
 
 TEST(BenchSmoke, EveryTrialOfEveryExperimentFinished) {
   const auto rows = trials();
-  // E1: 3 goal findings, E2 and E4: 6 methods; one density each, kTrials trials.
+  // E1: 3 goal findings; E2 (on paper and eth), E4 and E6: 6 methods; one density each, kTrials
+  // trials.
   std::map<std::string, int> per_experiment;
   std::set<std::string> keys;
   for (const auto& row : rows) {
-    ++per_experiment[row.at("experiment")];
+    ++per_experiment[row.at("experiment") + "/" + row.at("scenario")];
     EXPECT_EQ(row.at("end_reason").rfind("error: ", 0), std::string::npos)
         << row.at("experiment") << " " << row.at("method") << " s" << row.at("seed") << ": "
         << row.at("end_reason");
     EXPECT_LE(number(row.at("num_replans")), kReplans);
-    EXPECT_TRUE(keys.insert(row.at("experiment") + row.at("method") + row.at("goal_finding") +
-                            row.at("seed"))
+    EXPECT_TRUE(keys.insert(row.at("experiment") + row.at("scenario") + row.at("method") +
+                            row.at("goal_finding") + row.at("seed"))
                     .second);
   }
-  EXPECT_EQ(per_experiment["E1"], 3 * kTrials);
-  EXPECT_EQ(per_experiment["E2"], 6 * kTrials);
-  EXPECT_EQ(per_experiment["E4"], 6 * kTrials);
+  EXPECT_EQ(per_experiment["E1/paper"], 3 * kTrials);
+  EXPECT_EQ(per_experiment["E2/paper"], 6 * kTrials);
+  EXPECT_EQ(per_experiment["E2/eth"], 6 * kTrials);
+  EXPECT_EQ(per_experiment["E4/forest50"], 6 * kTrials);
+  EXPECT_EQ(per_experiment["E6/paper"], 6 * kTrials);
+  EXPECT_EQ(per_experiment.size(), 5u);
 }
 
 TEST(BenchSmoke, ConservativeStrategiesNeverCollideAndSuccessEndsAtTheGoal) {
@@ -87,6 +93,27 @@ TEST(BenchSmoke, ConservativeStrategiesNeverCollideAndSuccessEndsAtTheGoal) {
       EXPECT_GE(number(row.at("path_length_m")), number(row.at("straight_line_m")) - 0.2) << what;
     }
   }
+}
+
+// E6: where the dynamic obstacle appeared, a conservative strategy found its committed trajectory
+// blocked and kept the robot radius from the obstacle; no other experiment has one.
+TEST(BenchSmoke, ConservativeStrategiesStopShortOfTheDynamicObstacle) {
+  const auto paper = sim::loadScenario("paper", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
+  ASSERT_TRUE(paper) << paper.error();
+  int appeared = 0;
+  for (const auto& row : trials()) {
+    const std::string what = row.at("experiment") + " " + row.at("method") + " s" + row.at("seed");
+    const std::string& clearance = row.at("obstacle_clearance_m");
+    if (row.at("experiment") != "E6") {
+      EXPECT_EQ(clearance, "") << what;
+      continue;
+    }
+    if (clearance.empty() || !conservativeMethod(row.at("method"))) continue;
+    ++appeared;
+    EXPECT_GE(number(clearance), paper->robot_radius) << what;
+    EXPECT_GE(number(row.at("blocked_cycles")), 1) << what;
+  }
+  EXPECT_GT(appeared, 0) << "the obstacle appeared in no conservative E6 trial";
 }
 
 // The oracle demands more at the planning radius than at the collision radius; overflight is
@@ -121,7 +148,7 @@ TEST(BenchSmoke, EveryTrialHasItsPathFromStartToEnd) {
     EXPECT_GT(std::count(text.begin(), text.end(), '\n'), 10) << entry.path();
     ++paths;
   }
-  EXPECT_EQ(paths, (3 + 6 + 6) * kTrials);
+  EXPECT_EQ(paths, (3 + 6 + 6 + 6 + 6) * kTrials);
 }
 
 TEST(BenchSmoke, TheSubsamplingTableHasTheExactGainAtFractionOne) {
@@ -145,14 +172,19 @@ TEST(BenchSmoke, TheSubsamplingTableHasTheExactGainAtFractionOne) {
 
 TEST(BenchSmoke, TheSummaryHasEveryExperimentAndTheFiguresArePngs) {
   const std::string summary = fileText(kDir / "summary.md");
-  for (const char* heading : {"## Worlds:", "## E1:", "## E2:", "## E4:", "## T1:", "## E5:",
-                              "### Success on worlds solvable at the planning radius",
-                              "### Success on worlds solvable at the collision radius"}) {
+  for (const char* heading :
+       {"## Worlds:", "## E1:", "## E2: goal-selection strategies on paper,",
+        "## E2: goal-selection strategies on eth,", "## E3:", "## E4:", "## T1:", "## E5:",
+        "## E6: a path blocked in flight", "### E6 on paper, density 0.2",
+        "### Success on worlds solvable at the planning radius (paper)",
+        "### Success on worlds solvable at the collision radius (paper)",
+        "### Success on worlds solvable at the planning radius (eth)",
+        "### Success on worlds solvable at the collision radius (eth)"}) {
     EXPECT_NE(summary.find(heading), std::string::npos) << heading << " missing";
   }
   EXPECT_EQ(summary.find("## Problems"), std::string::npos) << summary;
-  for (const char* figure : {"e1_success.png", "e2_success.png", "e4_success.png", "e4_forest.png",
-                             "e5_subsampling.png"}) {
+  for (const char* figure : {"e1_success.png", "e2_success.png", "e2_success_eth.png",
+                             "e4_success.png", "e4_forest.png", "e5_subsampling.png"}) {
     const std::string png = fileText(kDir / "figures" / figure);
     EXPECT_EQ(png.rfind("\x89PNG\r\n\x1a\n", 0), 0u) << figure;
   }
