@@ -22,6 +22,7 @@
 
 #include "commands.h"
 #include "temp_dir_test.h"
+#include "thicket/local_planner/local_planner.h"
 
 namespace thicket::replay {
 
@@ -106,6 +107,10 @@ TEST(ReferenceLogs, TogetherExerciseThePlannerAndTheExplorer) {
         planner_status_t status;
         ASSERT_EQ(event.decode(status), "");
         if (!status.is_final && status.state == planner_status_t::STATE_STUCK) ++seen["asks"];
+        if (status.is_final &&
+            status.reason.rfind(local_planner::kBlockedTrajectoryReason, 0) == 0) {
+          ++seen["committed trajectory blocked"];
+        }
         if (status.is_final && status.state == planner_status_t::STATE_STUCK) ++seen["stuck"];
         if (status.is_final && status.state == planner_status_t::STATE_HOLDING) ++seen["holding"];
         if (status.is_final && status.state == planner_status_t::STATE_PLANNED &&
@@ -133,6 +138,7 @@ TEST(ReferenceLogs, TogetherExerciseThePlannerAndTheExplorer) {
   EXPECT_GE(seen["flies an intermediate goal"], 2);
   EXPECT_GE(seen["intermediate goals"], 10);
   EXPECT_GE(seen["no candidate"], 1);
+  EXPECT_GE(seen["committed trajectory blocked"], 1);
   EXPECT_GE(seen["goal reached"], 1);
   EXPECT_GE(seen["snapshots requested"], 3);
 }

@@ -19,7 +19,9 @@
 //     what the planner's acceptance test reads. Its maximum B bounds the overestimate: a sample in
 //     collision (true distance < robot radius) reads less than robot radius + B;
 //   - margin: of those points, the ones in collision: interpolated distance − robot radius. Its
-//     maximum M <= B is the smallest acceptance margin that refuses every one of them.
+//     maximum M <= B is the smallest acceptance margin that refuses every one of them;
+//   - under: points up to 0.3 m beyond the robot radius: true distance − interpolated distance,
+//     how much narrower the map makes the passages the planner has to find.
 // Writes DIR/clearance.csv (one row per configuration) and prints the table; the worst point of
 // each configuration is named (world, frame, position) so that it can be looked at.
 #pragma once
@@ -93,6 +95,9 @@ struct ClearanceRow {
   /// The points in collision (true distance < robot_radius): interpolated ESDF − robot_radius. Its
   /// maximum is the smallest clearance margin that refuses every one of them.
   ErrorSummary margin;
+  /// Points in free space up to 0.3 m beyond the robot radius, where passages are decided: true
+  /// distance − interpolated ESDF. What the map reads too low there narrows every gap.
+  ErrorSummary under;
 };
 
 Expected<ClearanceOptions> parseClearanceOptions(const std::vector<std::string>& args);

@@ -213,7 +213,8 @@ class BenchNode : public Node {
     subscribe<planner_status_t>(
         "PLANNER_STATUS",
         [this](const planner_status_t& msg, const MessageInfo&) {
-          if (msg.reason.rfind(kBlockedTrajectoryReason, 0) == 0) blocked_cycles_.insert(msg.cycle);
+          if (msg.reason.rfind(local_planner::kBlockedTrajectoryReason, 0) == 0)
+            blocked_cycles_.insert(msg.cycle);
         },
         1000);
   }

@@ -82,16 +82,12 @@ struct TrialResult {
   std::optional<double> obstacle_clearance_m;
   /// The planner cycles that found their committed trajectory blocked by a new map: every cycle
   /// one of whose PLANNER_STATUS messages (final or not) has a reason starting with
-  /// kBlockedTrajectoryReason, once.
+  /// local_planner::kBlockedTrajectoryReason, once.
   int blocked_cycles = 0;
   /// By "<module>_<stage>" as published on MODULE_TIMING.
   std::map<std::string, StageTiming> timings;
   std::vector<sim::PathSample> path;
 };
-
-/// How the local planner's PLANNER_STATUS reason starts in a cycle whose re-check found the
-/// committed trajectory blocked (local_planner.cc), whether it then stopped or replanned.
-inline constexpr const char* kBlockedTrajectoryReason = "the committed trajectory is blocked";
 
 /// Makes a node that watches a trial's graph (benchmarks record planning problems this way); it
 /// lives as long as the trial.

@@ -24,6 +24,10 @@ const std::vector<ReferenceFlight>& referenceFlights() {
       {"paper_none",
        {"paper", 0.3, 0, "none", 20},
        "no explorer: the planner alone, planned cycles, then stuck cycles that hold position"},
+      {"paper_dynamic_obstacle",
+       {"paper", 0.2, 14, "local_exploration", 35, true},
+       "a tree appears on the committed path: the re-check finds it blocked, commits a stop and "
+       "replans around it, the mission's end at the goal"},
   };
   return references;
 }
@@ -94,7 +98,8 @@ Expected<bench::RunOptions> runOptions(const FlightSpec& flight) {
   auto run = bench::parseRunOptions(
       {"--scenario", flight.scenario, "--density", numberText(flight.density), "--seed-base",
        std::to_string(flight.seed), "--method", flight.method, "--replans",
-       std::to_string(flight.replans), "--trials", "1", "--out", "unused"});
+       std::to_string(flight.replans), "--dynamic-obstacle", flight.dynamic_obstacle ? "on" : "off",
+       "--trials", "1", "--out", "unused"});
   if (!run) return run;
   const auto scenario = sim::loadScenario(run->scenario, run->worlds_dir);
   if (!scenario) return unexpected(scenario.error());

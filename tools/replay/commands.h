@@ -24,6 +24,7 @@ struct FlightSpec {
   int64_t seed = 0;
   std::string method = "none";
   int replans = 60;
+  bool dynamic_obstacle = false;  ///< the simulator's dynamic obstacle (benchmark E6)
 };
 
 /// A reference log: logs/<name>.lcmlog.ref, and what its flight exercises.

@@ -173,7 +173,7 @@ void LocalPlanner::recheck(const DistanceField& field, CycleReport& report) {
   const Stop stop = planStop(report.utime, report.start, field, options_.loco);
   commit(stop.trajectory, report);
   report.blocked =
-      "the committed trajectory is blocked (" + check.reason + "); " +
+      std::string(kBlockedTrajectoryReason) + " (" + check.reason + "); " +
       (stop.certified ? format("stopping within %.2f m in certified free space", stop.distance)
                       : format("no stop stays in certified free space: the hardest stop the "
                                "limits allow, %.2f m",

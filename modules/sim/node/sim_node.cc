@@ -141,7 +141,9 @@ void SimNode::updateDynamicObstacle() {
   const int64_t since_start = state.utime - vehicle_.path().front().utime;
   if (toSeconds(since_start) < o.appear_time) return;
   // Postponed to a later frame while there is no committed path to block, less of it is left
-  // than the drawn distance, or it winds back so that the obstacle would stand on the vehicle.
+  // than the drawn distance, or it winds back so that the obstacle would stand nearer the vehicle
+  // than the shortest draw on a straight path puts it: a vehicle cannot be asked to stop short of
+  // an obstacle that appears beside it.
   const PolynomialTrajectory* trajectory = vehicle_.trajectory();
   if (!trajectory) return;
   const std::optional<Eigen::Vector2d> axis =
@@ -150,7 +152,7 @@ void SimNode::updateDynamicObstacle() {
   const Cylinder cylinder{axis->x(), axis->y(), o.radius,
                           o.height > 0 ? o.height : world_.bounds_max.z()};
   const double clearance = cylinderDistance(cylinder, state.position);
-  if (!(clearance > world_.robot_radius)) return;
+  if (!(clearance >= o.distance_ahead_min - o.radius)) return;
 
   world_.cylinders.push_back(cylinder);
   // The vehicle holds a reference to truth_: assigning keeps it valid and shows it the obstacle.

@@ -21,11 +21,12 @@ namespace {
 
 const std::string kSource = THICKET_SOURCE_DIR;
 
-// A sheet command's program (the file name) and its --config file relative to the repository
-// root, where sheets run; empty when it passes none.
+// A sheet command's program (the file name), its --config file relative to the repository root,
+// where sheets run (empty when it passes none), and its other flags with their values.
 struct Launch {
   std::string program;
   std::string config;
+  std::map<std::string, std::string> flags;
 };
 
 std::map<std::string, Launch> launches(const std::string& sheet_path) {
@@ -37,12 +38,11 @@ std::map<std::string, Launch> launches(const std::string& sheet_path) {
     const auto split = procman::splitCommandLine(command.exec, {});
     EXPECT_TRUE(split) << command.exec;
     if (!split) continue;
-    Launch launch{std::filesystem::path(split->argv.front()).filename().string(), ""};
-    for (size_t i = 1; i < split->argv.size(); ++i) {
-      const std::string& arg = split->argv[i];
-      if (arg == "--config" && i + 1 < split->argv.size()) launch.config = split->argv[i + 1];
-      if (arg.rfind("--config=", 0) == 0) launch.config = arg.substr(9);
+    Launch launch{std::filesystem::path(split->argv.front()).filename().string(), "", {}};
+    for (size_t i = 1; i + 1 < split->argv.size(); ++i) {
+      if (split->argv[i].rfind("--", 0) == 0) launch.flags[split->argv[i]] = split->argv[i + 1];
     }
+    if (launch.flags.count("--config")) launch.config = launch.flags.at("--config");
     result[launch.program] = launch;
   }
   return result;
@@ -54,17 +54,22 @@ Options optionsOf(const Launch& launch) {
   return launch.config.empty() ? Options{} : loadParams<Options>(kSource + "/" + launch.config);
 }
 
-// The world every simulation sheet flies (their thicket-sim command: paper, 0.2, seed 0).
-sim::World sheetWorld() {
-  auto spec = sim::loadScenario("paper", kSource + "/config/worlds");
+// The world a sheet's thicket-sim command flies (--scenario, --density, --seed); the simulation
+// sheets all fly one, the replay sheet none (its logs come from sim.pmd).
+sim::World sheetWorld(const std::string& sheet_path) {
+  std::map<std::string, Launch> sheet = launches(sheet_path);
+  if (!sheet.count("thicket-sim")) sheet = launches("config/sim.pmd");
+  const std::map<std::string, std::string>& flags = sheet.at("thicket-sim").flags;
+  auto spec = sim::loadScenario(flags.at("--scenario"), kSource + "/config/worlds");
   EXPECT_TRUE(spec);
-  return *sim::generateWorld(*spec, 0.2, 0);
+  return *sim::generateWorld(*spec, std::stod(flags.at("--density")),
+                             std::stoull(flags.at("--seed")));
 }
 
 void expectSheetMatchesTrials(const std::string& sheet_path) {
   SCOPED_TRACE(sheet_path);
   const std::map<std::string, Launch> sheet = launches(sheet_path);
-  const sim::World world = sheetWorld();
+  const sim::World world = sheetWorld(sheet_path);
   ASSERT_TRUE(sheet.count("thicket-explorer"));
   // The sheet runs the explorer's configured strategy: the benchmark method of the same name.
   const std::string method =
@@ -102,7 +107,7 @@ TEST(SimWiring, TheStereoSheetRunsTheBenchmarksOptions) {
   const auto node =
       optionsOf<stereo_depth::StereoDepthNodeOptions>(sheet.at("thicket-stereo-depth"));
   const sim::StereoCameraOptions camera;
-  const sim::StereoRenderer renderer(sheetWorld(), camera);
+  const sim::StereoRenderer renderer(sheetWorld("config/sim_stereo.pmd"), camera);
   const PinholeCamera rendered = renderer.camera();
   const stereo_depth::RectifiedCameraOptions& rectified = node.stereo.rectified;
   EXPECT_EQ(rectified.width, rendered.width);
@@ -123,7 +128,7 @@ TEST(SimWiring, TheReplaySheetRunsTheBenchmarksOptions) {
 // The comparison itself tells options apart: one changed option in a file the benchmark loads
 // makes the texts differ.
 TEST(SimWiring, OneChangedOptionShows) {
-  const sim::World world = sheetWorld();
+  const sim::World world = sheetWorld("config/sim.pmd");
   TrialGraphOptions trial =
       trialGraphOptions("local_exploration", "soft", world.seed, world.bounds_min, world.bounds_max,
                         world.robot_radius);

@@ -54,6 +54,10 @@ struct VehicleState {
 };
 
 enum class CycleState { kPlanned, kStuck, kGoalReached, kHolding, kNoMap, kNoState, kStopping };
+
+/// How a cycle's reason (PLANNER_STATUS) starts when its re-check found the committed trajectory
+/// blocked, whether it then stopped or replanned.
+inline constexpr const char* kBlockedTrajectoryReason = "the committed trajectory is blocked";
 constexpr int kNumCycleStates = 7;
 const char* cycleStateName(CycleState state);
 

@@ -20,8 +20,9 @@ namespace thicket::sim {
 struct DynamicObstacleOptions {
   bool enabled = false;
   /// Earliest appearance [s after the trial start]: it appears at the first frame at or after
-  /// this time whose committed trajectory has at least the drawn distance of path left, before
-  /// that frame is rendered.
+  /// this time whose committed trajectory has at least the drawn distance of path left and does
+  /// not wind back toward the vehicle (its surface at least distance_ahead_min - radius from the
+  /// vehicle), before that frame is rendered.
   double appear_time = 5.0;
   /// Where its axis goes: this much path length along the committed trajectory from the vehicle,
   /// drawn uniformly from [min, max] [m]. The minimum must exceed radius + the robot radius.
