@@ -4,6 +4,18 @@
 
 namespace thicket {
 
+bool tsdfObservedAround(const TsdfLayer& tsdf, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d lower =
+      (p / tsdf.voxelSize() - Eigen::Vector3d::Constant(0.5)).array().floor();
+  if (!(lower.array().abs() < 1e9).all()) return false;
+  const VoxelIndex base = lower.cast<int>();
+  for (int i = 0; i < 8; ++i) {
+    const TsdfVoxel* t = tsdf.voxel(base + VoxelIndex(i & 1, (i >> 1) & 1, i >> 2));
+    if (t == nullptr || !(t->weight > 0)) return false;
+  }
+  return true;
+}
+
 EsdfSample sampleEsdf(const EsdfLayer& esdf, const Eigen::Vector3d& p) {
   if (!p.allFinite()) return {};
   // The cell between 8 voxel centres: centres sit at (i + 0.5) * voxel_size.

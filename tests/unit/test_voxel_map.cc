@@ -113,6 +113,23 @@ TEST(EsdfQuery, AnyUnobservedOrMissingCornerIsUnknown) {
   EXPECT_FALSE(sampleEsdf(layer, {1e300, 0, 0}).known);
 }
 
+// The 8 TSDF voxels of the interpolation cell, as sampleEsdf picks them, must all have weight.
+TEST(EsdfQuery, TsdfObservedAroundAsksTheSameEightVoxels) {
+  TsdfLayer tsdf(0.2);
+  for (int z = 0; z < 2; ++z) {
+    for (int y = 0; y < 2; ++y) {
+      for (int x = 15; x < 17; ++x) tsdf.allocateVoxel({x, y, z}) = {0.5f, 1.0f};
+    }
+  }
+  const Eigen::Vector3d p(16 * 0.2, 0.25, 0.25);  // voxels 15 and 16 on x: across two blocks
+  EXPECT_TRUE(tsdfObservedAround(tsdf, p));
+  EXPECT_FALSE(tsdfObservedAround(tsdf, p + Eigen::Vector3d(0.2, 0, 0)));  // voxel 17 missing
+  tsdf.voxel({15, 1, 0})->weight = 0;
+  EXPECT_FALSE(tsdfObservedAround(tsdf, p));
+  EXPECT_FALSE(tsdfObservedAround(tsdf, {NAN, 0, 0}));
+  EXPECT_FALSE(tsdfObservedAround(tsdf, {1e300, 0, 0}));
+}
+
 TsdfLayer randomTsdf(uint64_t seed, int blocks) {
   TsdfLayer layer(0.1);
   std::mt19937_64 rng(seed);

@@ -294,18 +294,6 @@ std::string place(const Flight& flight, size_t frame, const Eigen::Vector3d& p, 
   return text;
 }
 
-// Whether the TSDF observed all 8 voxels the ESDF interpolates between at p: the ESDF also calls
-// the unobserved voxels of the take-off sphere free (an assumption, not a measurement).
-bool observedAround(const TsdfLayer& tsdf, const Eigen::Vector3d& p) {
-  const Eigen::Vector3d corner = p / tsdf.voxelSize() - Eigen::Vector3d::Constant(0.5);
-  const VoxelIndex base = corner.array().floor().cast<int>().matrix();
-  for (int i = 0; i < 8; ++i) {
-    const TsdfVoxel* t = tsdf.voxel(base + VoxelIndex(i & 1, (i >> 1) & 1, i >> 2));
-    if (t == nullptr || !(t->weight > 0)) return false;
-  }
-  return true;
-}
-
 // Maps one flight under one configuration and measures after every frame.
 Measured measure(const ClearanceOptions& options, const Flight& flight, const Config& config) {
   mapper::MapperOptions mapper_options;
@@ -373,7 +361,7 @@ Measured measure(const ClearanceOptions& options, const Flight& flight, const Co
       const Eigen::Vector3d p = centre + options.horizon * offset;
       if (!inVolume(p)) continue;
       const EsdfSample s = sampleEsdf(esdf, p);
-      if (!s.known || !observedAround(tsdf, p)) continue;
+      if (!s.known || !tsdfObservedAround(tsdf, p)) continue;
       const double d = truth.distance(p);
       if (!(d > 0)) continue;
       const auto where = [&] { return place(flight, k, p, s.distance, d); };

@@ -33,14 +33,16 @@ inline Frame renderFrame(const sim::DepthRenderer& renderer, const Pose& world_T
   return frame;
 }
 
+/// The benchmark's world of `scenario` (config/worlds) at `density` and `seed`.
+inline sim::World benchmarkWorld(const std::string& scenario, double density, uint64_t seed) {
+  const auto spec = sim::loadScenario(scenario, std::string(THICKET_SOURCE_DIR) + "/config/worlds");
+  if (!spec) throw std::runtime_error(spec.error());
+  return *sim::generateWorld(*spec, density, seed);
+}
+
 /// Built once.
 inline const sim::World& forest() {
-  static const sim::World world = [] {
-    const auto spec =
-        sim::loadScenario("forest50", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
-    if (!spec) throw std::runtime_error(spec.error());
-    return *sim::generateWorld(*spec, 0.2, 1);
-  }();
+  static const sim::World world = benchmarkWorld("forest50", 0.2, 1);
   return world;
 }
 

@@ -34,12 +34,7 @@ constexpr double kHorizon = 3.0;
 // The paper world (density 0.3, seed 0), whose walls the vehicle sees at a slant when it flies
 // along them.
 const sim::World& paperWorld() {
-  static const sim::World world = [] {
-    const auto spec =
-        sim::loadScenario("paper", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
-    if (!spec) throw std::runtime_error(spec.error());
-    return *sim::generateWorld(*spec, 0.3, 0);
-  }();
+  static const sim::World world = benchmarkWorld("paper", 0.3, 0);
   return world;
 }
 
@@ -65,7 +60,8 @@ std::vector<Frame> variedFlight(const sim::World& world, const Eigen::Vector3d& 
   return frames;
 }
 
-// Through the forest along its start-goal diagonal, and along the paper world's wall at y = 0, 1 m from it.
+// Through the forest along its start-goal diagonal, and along the paper world's wall at y = 0, 1 m
+// from it.
 std::vector<Frame> forestFlight() {
   const sim::World& world = forest();
   return variedFlight(world, world.start + 2.0 * (world.goal - world.start).normalized(),
@@ -73,18 +69,6 @@ std::vector<Frame> forestFlight() {
 }
 std::vector<Frame> wallFlight() {
   return variedFlight(paperWorld(), {1.5, 1.0, 1.5}, {13.5, 1.0, 1.5}, 12);
-}
-
-// Whether the TSDF observed all 8 voxels the ESDF interpolates between at p (the take-off
-// sphere's free space is assumed, not measured).
-bool observedAround(const TsdfLayer& tsdf, const Eigen::Vector3d& p) {
-  const Eigen::Vector3d corner = p / tsdf.voxelSize() - Eigen::Vector3d::Constant(0.5);
-  const VoxelIndex base = corner.array().floor().cast<int>().matrix();
-  for (int i = 0; i < 8; ++i) {
-    const TsdfVoxel* t = tsdf.voxel(base + VoxelIndex(i & 1, (i >> 1) & 1, i >> 2));
-    if (t == nullptr || !(t->weight > 0)) return false;
-  }
-  return true;
 }
 
 struct Overestimate {
@@ -115,7 +99,7 @@ Overestimate flyAndMeasure(const sim::World& world, const MapperOptions& options
       const double d = truth.distance(p);
       if (!(d > 0 && d < kRobotRadius)) continue;
       const EsdfSample e = sampleEsdf(mapper.esdf(), p);
-      if (!e.known || !observedAround(mapper.tsdf(), p)) continue;
+      if (!e.known || !tsdfObservedAround(mapper.tsdf(), p)) continue;
       ++result.points;
       result.above_radius = std::max(result.above_radius, e.distance - kRobotRadius);
       result.worst_error = std::max(result.worst_error, e.distance - d);

@@ -20,4 +20,9 @@ struct EsdfSample {
 /// interpolant, continuous inside a cell). A non-finite p is unknown.
 EsdfSample sampleEsdf(const EsdfLayer& esdf, const Eigen::Vector3d& p);
 
+/// Whether the TSDF observed (weight > 0) all 8 voxels sampleEsdf interpolates between at p: a
+/// measured distance there, not the take-off sphere's assumed free space. For checking maps
+/// against ground truth. A non-finite p is not observed.
+bool tsdfObservedAround(const TsdfLayer& tsdf, const Eigen::Vector3d& p);
+
 }  // namespace thicket
