@@ -112,6 +112,9 @@ std::string usage() {
          "  --jobs J          trials run on J threads (default 1)\n"
          "  --worlds-dir DIR  where scenario names are looked up (default: the source tree's\n"
          "                    config/worlds)\n"
+         "  --config DIR      the graph's option files, DIR/<module>.yaml for vio_bridge, mapper,\n"
+         "                    local_planner, explorer and stereo_depth (default: the source\n"
+         "                    tree's config/sim, what the simulation sheets run)\n"
          "  --out DIR         the output folder\n"
          "       thicket-bench [--benchmark_filter=REGEX ...]: the module micro-benchmarks\n";
 }
@@ -170,6 +173,7 @@ const std::map<std::string, Setter>& setters() {
        }},
       {"--worlds-dir",
        [](RunOptions& o, const std::string& v) { return setText(o.worlds_dir, v); }},
+      {"--config", [](RunOptions& o, const std::string& v) { return setText(o.config_dir, v); }},
       {"--out", [](RunOptions& o, const std::string& v) { return setText(o.out, v); }},
   };
   return table;
@@ -180,6 +184,7 @@ const std::map<std::string, Setter>& setters() {
 Expected<RunOptions> parseRunOptions(const std::vector<std::string>& args) {
   RunOptions options;
   options.worlds_dir = std::string(THICKET_SOURCE_DIR) + "/config/worlds";
+  options.config_dir = simConfigDir();
   const auto given = applyFlags(args, setters(), options);
   if (!given) return unexpected(given.error());
   if (options.help) return options;
@@ -247,12 +252,17 @@ sim::SimOptions simOptions(const RunOptions& options, const sim::World& world) {
   return sim;
 }
 
+std::string configDir(const RunOptions& options) {
+  return options.config_dir.empty() ? simConfigDir() : options.config_dir;
+}
+
 // With the stereo sensor, the depth node for the simulator's pairs, with the options the stereo
 // sheet gives it (config/sim/stereo_depth.yaml: the rendered pair's rectified camera).
 std::unique_ptr<Node> stereoDepthNode(lcm::LCM& lcm, const RunOptions& options) {
   if (options.sensor != "stereo") return nullptr;
   return std::make_unique<stereo_depth::StereoDepthNode>(
-      lcm, loadParams<stereo_depth::StereoDepthNodeOptions>(simConfigDir() + "/stereo_depth.yaml"),
+      lcm,
+      loadParams<stereo_depth::StereoDepthNodeOptions>(configDir(options) + "/stereo_depth.yaml"),
       steadyClockMillis);
 }
 
@@ -299,7 +309,7 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   result.straight_line_m = (world.goal - world.start).norm();
   const TrialGraphOptions graph =
       trialGraphOptions(options.method, options.goal_finding, world.seed, world.bounds_min,
-                        world.bounds_max, world.robot_radius);
+                        world.bounds_max, world.robot_radius, configDir(options));
   checkOracle(world, graph.planner, result);
 
   const auto started = std::chrono::steady_clock::now();
@@ -367,10 +377,10 @@ std::string simConfigDir() {
 
 TrialGraphOptions trialGraphOptions(const std::string& method, const std::string& goal_finding,
                                     uint64_t seed, const Eigen::Vector3d& bounds_min,
-                                    const Eigen::Vector3d& bounds_max, double robot_radius) {
+                                    const Eigen::Vector3d& bounds_max, double robot_radius,
+                                    const std::string& dir) {
   const Method& strategy = findRow(kMethods, method, "method");
   const GoalFinding& variant = findRow(kGoalFindings, goal_finding, "goal finding");
-  const std::string dir = simConfigDir();
   TrialGraphOptions graph;
   graph.bridge = loadParams<vio_bridge::VioBridgeNodeOptions>(dir + "/vio_bridge.yaml");
   graph.mapper = loadParams<mapper::MapperNodeOptions>(dir + "/mapper.yaml");
@@ -662,6 +672,14 @@ int runCommand(const std::vector<std::string>& args) {
   }
   auto spec = sim::loadScenario(options->scenario, options->worlds_dir);
   if (!spec) return failUsage(spec.error());
+  try {  // a configuration that does not load is the user's to fix, before any trial flies
+    trialGraphOptions(options->method, options->goal_finding, 0, Eigen::Vector3d::Zero(),
+                      spec->size, spec->robot_radius, options->config_dir);
+    if (options->sensor == "stereo")
+      loadParams<stereo_depth::StereoDepthNodeOptions>(options->config_dir + "/stereo_depth.yaml");
+  } catch (const std::exception& e) {
+    return failUsage(e.what());
+  }
 
   try {
     std::filesystem::create_directories(options->out + "/paths");

@@ -40,6 +40,8 @@ struct RunOptions {
   /// cylinder that appears on the committed path during the flight (BENCHMARK.md E6).
   bool dynamic_obstacle = false;
   std::string worlds_dir;
+  /// Where the graph's option files are read (trialGraphOptions); empty: simConfigDir().
+  std::string config_dir;
   std::string out;  ///< the output folder
   bool help = false;
 };
@@ -132,15 +134,17 @@ std::string simConfigDir();
 
 /// The graph of a trial of `method` with `goal_finding` on the world of `seed` inside
 /// [bounds_min, bounds_max] flown by a robot of `robot_radius`: every module's options are loaded
-/// from simConfigDir(), then the trial sets what is its own: the explorer's strategy (none: no
-/// explorer, and the planner holds when stuck), the goal finding, the seeds of the planner and
-/// the explorer (the world's), the map id (seed + 1) and the flight volume of the planner and the
-/// explorer (the world's bounds shrunk by the robot radius, where the oracle keeps the centre).
+/// from `config_dir` (`thicket-bench run --config` flies another configuration), then the trial
+/// sets what is its own: the explorer's strategy (none: no explorer, and the planner holds when
+/// stuck), the goal finding, the seeds of the planner and the explorer (the world's), the map id
+/// (seed + 1) and the flight volume of the planner and the explorer (the world's bounds shrunk by
+/// the robot radius, where the oracle keeps the centre).
 /// Throws std::invalid_argument naming an unknown method or goal finding, thicket::ParamError
 /// when a file does not load.
 TrialGraphOptions trialGraphOptions(const std::string& method, const std::string& goal_finding,
                                     uint64_t seed, const Eigen::Vector3d& bounds_min,
-                                    const Eigen::Vector3d& bounds_max, double robot_radius);
+                                    const Eigen::Vector3d& bounds_max, double robot_radius,
+                                    const std::string& config_dir = simConfigDir());
 
 // ---- trials.csv, shared by `thicket-bench run` and `thicket-bench experiment` ----
 

@@ -29,6 +29,25 @@ std::string tempDir(const std::string& name) {
   return ::testing::TempDir() + "/bench_run_" + std::to_string(::getpid()) + "_" + name;
 }
 
+// A copy of the shipped config/sim whose local_planner.yaml also sets planner.loco's
+// `loco_option` ("key: value").
+std::string configCopy(const std::string& name, const std::string& loco_option) {
+  const std::string source = std::string(THICKET_SOURCE_DIR) + "/config/sim";
+  const std::string dir = tempDir(name);
+  std::filesystem::create_directories(dir);
+  for (const auto& entry : std::filesystem::directory_iterator(source))
+    std::filesystem::copy_file(entry.path(), dir + "/" + entry.path().filename().string());
+  std::ifstream shipped(source + "/local_planner.yaml");
+  std::stringstream text;
+  text << shipped.rdbuf();
+  std::string yaml = text.str();
+  const size_t planner = yaml.find("\nplanner:\n");
+  EXPECT_NE(planner, std::string::npos) << "config/sim/local_planner.yaml has no planner block";
+  if (planner != std::string::npos) yaml.insert(planner + 10, "  loco:\n    " + loco_option + "\n");
+  std::ofstream(dir + "/local_planner.yaml") << yaml;
+  return dir;
+}
+
 using Table = std::vector<std::vector<std::string>>;
 
 // A CSV without quoted fields (the rows these runs write have none).
@@ -165,6 +184,32 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
   std::filesystem::remove_all(out);
 }
 
+// --config flies another configuration: a planner that demands 2 m of clearance (the start is
+// 1.5 m above the ground) accepts no trajectory, where the shipped configuration reaches the goal
+// of the same world.
+TEST(BenchRun, ConfigChangesTheOptionsTheGraphFlies) {
+  const std::string demanding = configCopy("demanding", "clearance_margin: 1.5");
+  const std::string shipped = tempDir("shipped"), changed = tempDir("changed");
+  const std::string common = "run --density 0.05 --trials 1 --seed-base 7 --replans 30 --out ";
+  const CliResult first = bench(common + shipped);
+  ASSERT_EQ(first.status, 0) << first.output;
+  const CliResult second = bench(common + changed + " --config " + demanding);
+  ASSERT_EQ(second.status, 0) << second.output;
+  const auto row = [](const std::string& dir) {
+    const Table table = readCsv(dir + "/trials.csv");
+    EXPECT_EQ(table.size(), 2u);
+    std::map<std::string, std::string> cell;
+    for (size_t i = 0; i < table[0].size() && i < table.back().size(); ++i)
+      cell[table[0][i]] = table.back()[i];
+    return cell;
+  };
+  const auto reached = row(shipped), held = row(changed);
+  EXPECT_EQ(reached.at("success"), "1");
+  EXPECT_EQ(held.at("success"), "0");
+  EXPECT_LT(std::stod(held.at("path_length_m")), 0.01);
+  for (const std::string& dir : {demanding, shipped, changed}) std::filesystem::remove_all(dir);
+}
+
 TEST(BenchRun, BadFlagsFailWithAMessage) {
   const auto fails = [](const std::string& args, const std::string& message) {
     const CliResult result = bench("run " + args);
@@ -182,6 +227,11 @@ TEST(BenchRun, BadFlagsFailWithAMessage) {
   fails("--density 0.05 --trials 2 --dynamic-obstacle yes" + out,
         "--dynamic-obstacle must be on or off, not 'yes'");
   fails("--density 0.05 --trials 2 --scenario nowhere" + out, "nowhere");
+  fails("--density 0.05 --trials 2 --config /nonexistent/sim" + out,
+        "/nonexistent/sim/vio_bridge.yaml: cannot open");
+  const std::string bad = configCopy("bad_config", "clearance_margin: -1");
+  fails("--density 0.05 --trials 2 --config " + bad + out, "clearance_margin");
+  std::filesystem::remove_all(bad);
   EXPECT_FALSE(std::filesystem::exists(tempDir("refused")));
 
   const CliResult help = bench("run --help");
