@@ -1,16 +1,32 @@
 #include "thicket/common/esdf_query.h"
 
 #include <cmath>
+#include <optional>
 
 namespace thicket {
 
+namespace {
+
+// The cell between the 8 voxel centres around p (centres sit at (i + 0.5) * voxel_size): its
+// lowest voxel, and p's fraction of the way across it per axis. None for a non-finite or far-off p.
+struct Cell {
+  VoxelIndex base;
+  Eigen::Vector3d t;
+};
+std::optional<Cell> cellAround(const Eigen::Vector3d& p, double voxel_size) {
+  const Eigen::Vector3d scaled = p / voxel_size - Eigen::Vector3d::Constant(0.5);
+  const Eigen::Vector3d lower = scaled.array().floor();
+  if (!(lower.array().abs() < 1e9).all()) return std::nullopt;
+  return Cell{lower.cast<int>(), scaled - lower};
+}
+
+}  // namespace
+
 bool tsdfObservedAround(const TsdfLayer& tsdf, const Eigen::Vector3d& p) {
-  const Eigen::Vector3d lower =
-      (p / tsdf.voxelSize() - Eigen::Vector3d::Constant(0.5)).array().floor();
-  if (!(lower.array().abs() < 1e9).all()) return false;
-  const VoxelIndex base = lower.cast<int>();
+  const std::optional<Cell> cell = cellAround(p, tsdf.voxelSize());
+  if (!cell) return false;
   for (int i = 0; i < 8; ++i) {
-    const TsdfVoxel* t = tsdf.voxel(base + VoxelIndex(i & 1, (i >> 1) & 1, i >> 2));
+    const TsdfVoxel* t = tsdf.voxel(cell->base + VoxelIndex(i & 1, (i >> 1) & 1, i >> 2));
     if (t == nullptr || !(t->weight > 0)) return false;
   }
   return true;
@@ -18,12 +34,10 @@ bool tsdfObservedAround(const TsdfLayer& tsdf, const Eigen::Vector3d& p) {
 
 EsdfSample sampleEsdf(const EsdfLayer& esdf, const Eigen::Vector3d& p) {
   if (!p.allFinite()) return {};
-  // The cell between 8 voxel centres: centres sit at (i + 0.5) * voxel_size.
-  const Eigen::Vector3d scaled = p / esdf.voxelSize() - Eigen::Vector3d::Constant(0.5);
-  const Eigen::Vector3d lower = scaled.array().floor();
-  if (!(lower.array().abs() < 1e9).all()) return {};
-  const VoxelIndex base = lower.cast<int>();
-  const Eigen::Vector3d t = scaled - lower;
+  const std::optional<Cell> cell = cellAround(p, esdf.voxelSize());
+  if (!cell) return {};
+  const VoxelIndex& base = cell->base;
+  const Eigen::Vector3d& t = cell->t;
   double values[2][2][2];
   // Usually all 8 voxels share one block: look it up once (this is the planner's inner loop).
   const BlockIndex block_index = blockOfVoxel(base);

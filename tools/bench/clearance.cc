@@ -21,32 +21,31 @@
 
 namespace thicket::bench {
 
+namespace {
+
+// A variant that sets the two mapping changes the measurement compares and keeps new surfaces
+// averaged in, as before either existed.
+std::function<void(mapper::MapperOptions&)> mappingChanges(bool normal_distances,
+                                                           bool crossing_sites) {
+  return [=](mapper::MapperOptions& o) {
+    o.tsdf.normal_distances = normal_distances;
+    o.tsdf.new_surfaces_replace = false;
+    o.esdf.crossing_sites = crossing_sites;
+  };
+}
+
+}  // namespace
+
 const std::vector<MappingVariant>& mappingVariants() {
   static const std::vector<MappingVariant> variants = {
       {"line_of_sight", "TSDF distances along the line of sight; sites in the surface band only",
-       [](mapper::MapperOptions& o) {
-         o.tsdf.normal_distances = false;
-         o.tsdf.new_surfaces_replace = false;
-         o.esdf.crossing_sites = false;
-       }},
+       mappingChanges(false, false)},
       {"normal", "TSDF distances along the surface normal estimated from the depth image",
-       [](mapper::MapperOptions& o) {
-         o.tsdf.normal_distances = true;
-         o.tsdf.new_surfaces_replace = false;
-         o.esdf.crossing_sites = false;
-       }},
+       mappingChanges(true, false)},
       {"crossing", "line of sight, and sites at the TSDF's zero crossings",
-       [](mapper::MapperOptions& o) {
-         o.tsdf.normal_distances = false;
-         o.tsdf.new_surfaces_replace = false;
-         o.esdf.crossing_sites = true;
-       }},
+       mappingChanges(false, true)},
       {"normal_crossing", "normal distances and sites at the zero crossings",
-       [](mapper::MapperOptions& o) {
-         o.tsdf.normal_distances = true;
-         o.tsdf.new_surfaces_replace = false;
-         o.esdf.crossing_sites = true;
-       }},
+       mappingChanges(true, true)},
       {"defaults", "normal distances, crossing sites, and new surfaces replacing free history",
        [](mapper::MapperOptions&) {}},
   };

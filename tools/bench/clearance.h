@@ -13,11 +13,11 @@
 //   - voxels: every voxel in free space observed by the TSDF (weight > 0) and flagged observed in
 //     the ESDF: the error is its ESDF distance − the true distance at its centre;
 //   - points: seeded random points in free space (the same for every configuration) where the
-//   interpolated ESDF
-//     is known and the 8 voxels around them were observed by the TSDF (the take-off sphere's free
-//     space is assumed, not mapped): the error is the interpolated distance − the true distance,
-//     what the planner's acceptance test reads. Its maximum B bounds the overestimate: a sample in
-//     collision (true distance < robot radius) reads less than robot radius + B;
+//     interpolated ESDF is known and the 8 voxels around them were observed by the TSDF (the
+//     take-off sphere's free space is assumed, not mapped): the error is the interpolated distance
+//     − the true distance, what the planner's acceptance test reads. Its maximum B bounds the
+//     overestimate: a sample in collision (true distance < robot radius) reads less than robot
+//     radius + B;
 //   - margin: of those points, the ones in collision: interpolated distance − robot radius. Its
 //     maximum M <= B is the smallest acceptance margin that refuses every one of them;
 //   - under: points up to 0.3 m beyond the robot radius: true distance − interpolated distance,

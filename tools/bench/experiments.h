@@ -1,8 +1,7 @@
 // thicket-bench experiment / merge: the benchmark's experiments (BENCHMARK.md: E1, E2, E4 fly
 // trials; E3 and T1 are computed from E2's and E4's rows; E5 is its own program; E6 flies trials
-// with the simulator's dynamic obstacle), run as one
-// deterministic list of trials that can be resumed after a kill, split across machines
-// (--shard i/N) and merged back.
+// with the simulator's dynamic obstacle), run as one deterministic list of trials that can be
+// resumed after a kill, split across machines (--shard i/N) and merged back.
 //
 // Output folder DIR:
 //   rows/shard-<i>-of-<N>.csv  one line per finished trial, appended and flushed at once (the

@@ -26,6 +26,7 @@
 #include "experiments.h"
 #include "flags.h"
 #include "thicket/common/statistics.h"
+#include "thicket/sim/dynamic_obstacle.h"
 #include "thicket/sim/world.h"
 #include "trials.h"
 
@@ -1022,14 +1023,21 @@ std::string e6Section(Report& report, const std::vector<Trial>& trials,
   if (e6.empty()) return "";
   std::map<std::pair<std::string, double>, std::vector<const Trial*>> groups;
   for (const Trial* t : e6) groups[{t->spec.scenario, t->spec.density}].push_back(t);
+  const sim::DynamicObstacleOptions obstacle;  // the trials fly its defaults
   std::string text =
-      "## E6: a path blocked in flight\n\n"
-      "The simulator's dynamic obstacle: a cylinder of radius 0.5 m, as tall as the height limit, "
-      "appears on the vehicle's committed trajectory 2-2.5 m ahead at the first frame at or after "
-      "5 s with that much committed path left (it may never appear). Touched: the vehicle came "
-      "closer to it than the robot radius (a collision). Clearance: the smallest over the trials "
-      "in which it appeared. Blocked cycles: planner cycles that found their committed "
-      "trajectory blocked by a new map; the median over the trials in which it appeared.\n\n";
+      "## E6: a path blocked in flight\n\n" +
+      print(
+          "The simulator's dynamic obstacle: a cylinder of radius %g m, as tall as the height "
+          "limit, appears on the vehicle's committed trajectory %g-%g m ahead ",
+          obstacle.radius, obstacle.distance_ahead_min, obstacle.distance_ahead_max) +
+      print(
+          "at the first frame at or after %g s with that much committed path left (it may "
+          "never appear). ",
+          obstacle.appear_time) +
+      "Touched: the vehicle came closer to it than the robot radius (a collision). Clearance: the "
+      "smallest over the trials in which it appeared. Blocked cycles: planner cycles that found "
+      "their committed trajectory blocked by a new map; the median over the trials in which it "
+      "appeared.\n\n";
   for (const auto& [where, group] : groups) {
     const auto& [scenario, density] = where;
     std::optional<double> robot_radius;
@@ -1063,12 +1071,12 @@ std::string e6Section(Report& report, const std::vector<Trial>& trials,
     for (const std::string& method : ordered(keysOf(by_method), methodNames())) {
       const Counts& c = by_method[method];
       const auto ifKnown = [known](const std::string& cell) { return known ? cell : "–"; };
-      rows.push_back({method, std::to_string(c.success.trials), ifKnown(std::to_string(c.appeared)),
-                      robot_radius ? ifKnown(std::to_string(c.touched)) : "–",
-                      std::to_string(c.collisions), successCell(c.success),
-                      c.closest ? print("%.4f", *c.closest) : "–",
-                      ifKnown(std::to_string(c.blocked)),
-                      c.blocked_cycles.empty() ? "–" : print("%g", median(c.blocked_cycles))});
+      rows.push_back(
+          {method, std::to_string(c.success.trials), ifKnown(std::to_string(c.appeared)),
+           robot_radius ? ifKnown(std::to_string(c.touched)) : "–", std::to_string(c.collisions),
+           successCell(c.success), c.closest ? print("%.4f", *c.closest) : "–",
+           ifKnown(std::to_string(c.blocked)),
+           c.blocked_cycles.empty() ? "–" : ifKnown(print("%g", median(c.blocked_cycles)))});
     }
     text += "### E6 on " + scenario + ", density " + densityText(density) + "\n\n" +
             (known ? ""

@@ -184,7 +184,6 @@ const std::map<std::string, Setter>& setters() {
 Expected<RunOptions> parseRunOptions(const std::vector<std::string>& args) {
   RunOptions options;
   options.worlds_dir = std::string(THICKET_SOURCE_DIR) + "/config/worlds";
-  options.config_dir = simConfigDir();
   const auto given = applyFlags(args, setters(), options);
   if (!given) return unexpected(given.error());
   if (options.help) return options;
@@ -252,18 +251,18 @@ sim::SimOptions simOptions(const RunOptions& options, const sim::World& world) {
   return sim;
 }
 
-std::string configDir(const RunOptions& options) {
-  return options.config_dir.empty() ? simConfigDir() : options.config_dir;
+// The depth node's options for the simulator's stereo pairs, what the stereo sheet gives it
+// (config/sim/stereo_depth.yaml: the rendered pair's rectified camera).
+stereo_depth::StereoDepthNodeOptions stereoDepthOptions(const RunOptions& options) {
+  return loadParams<stereo_depth::StereoDepthNodeOptions>(options.config_dir +
+                                                          "/stereo_depth.yaml");
 }
 
-// With the stereo sensor, the depth node for the simulator's pairs, with the options the stereo
-// sheet gives it (config/sim/stereo_depth.yaml: the rendered pair's rectified camera).
+// With the stereo sensor, the depth node for the simulator's pairs.
 std::unique_ptr<Node> stereoDepthNode(lcm::LCM& lcm, const RunOptions& options) {
   if (options.sensor != "stereo") return nullptr;
-  return std::make_unique<stereo_depth::StereoDepthNode>(
-      lcm,
-      loadParams<stereo_depth::StereoDepthNodeOptions>(configDir(options) + "/stereo_depth.yaml"),
-      steadyClockMillis);
+  return std::make_unique<stereo_depth::StereoDepthNode>(lcm, stereoDepthOptions(options),
+                                                         steadyClockMillis);
 }
 
 void checkOracle(const sim::World& world, const local_planner::LocalPlannerNodeOptions& planner,
@@ -309,7 +308,7 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   result.straight_line_m = (world.goal - world.start).norm();
   const TrialGraphOptions graph =
       trialGraphOptions(options.method, options.goal_finding, world.seed, world.bounds_min,
-                        world.bounds_max, world.robot_radius, configDir(options));
+                        world.bounds_max, world.robot_radius, options.config_dir);
   checkOracle(world, graph.planner, result);
 
   const auto started = std::chrono::steady_clock::now();
@@ -675,8 +674,7 @@ int runCommand(const std::vector<std::string>& args) {
   try {  // a configuration that does not load is the user's to fix, before any trial flies
     trialGraphOptions(options->method, options->goal_finding, 0, Eigen::Vector3d::Zero(),
                       spec->size, spec->robot_radius, options->config_dir);
-    if (options->sensor == "stereo")
-      loadParams<stereo_depth::StereoDepthNodeOptions>(options->config_dir + "/stereo_depth.yaml");
+    if (options->sensor == "stereo") stereoDepthOptions(*options);
   } catch (const std::exception& e) {
     return failUsage(e.what());
   }

@@ -25,6 +25,11 @@
 
 namespace thicket::bench {
 
+/// Where the simulated graph's option files live: `<dir>/<module>.yaml` for vio_bridge, mapper,
+/// local_planner and explorer. The process sheets (config/sim*.pmd) pass the same files to the
+/// executables, so the benchmark flies what the sheets run: the source tree's config/sim.
+std::string simConfigDir();
+
 /// What `thicket-bench run` was asked for.
 struct RunOptions {
   std::string scenario = "paper";
@@ -40,8 +45,8 @@ struct RunOptions {
   /// cylinder that appears on the committed path during the flight (BENCHMARK.md E6).
   bool dynamic_obstacle = false;
   std::string worlds_dir;
-  /// Where the graph's option files are read (trialGraphOptions); empty: simConfigDir().
-  std::string config_dir;
+  /// Where the graph's option files are read (trialGraphOptions).
+  std::string config_dir = simConfigDir();
   std::string out;  ///< the output folder
   bool help = false;
 };
@@ -126,11 +131,6 @@ struct TrialGraphOptions {
   std::optional<explorer::ExplorerNodeOptions> explorer;
   local_planner::LocalPlannerNodeOptions planner;
 };
-
-/// Where the simulated graph's option files live: `<dir>/<module>.yaml` for vio_bridge, mapper,
-/// local_planner and explorer. The process sheets (config/sim*.pmd) pass the same files to the
-/// executables, so the benchmark flies what the sheets run: the source tree's config/sim.
-std::string simConfigDir();
 
 /// The graph of a trial of `method` with `goal_finding` on the world of `seed` inside
 /// [bounds_min, bounds_max] flown by a robot of `robot_radius`: every module's options are loaded

@@ -129,7 +129,8 @@ class Router {
     islands_.push_back(std::make_unique<Island>(module("vio_bridge")));
     islands_.back()->host<vio_bridge::VioBridgeNode>(options.bridge, steadyClockMillis);
     islands_.push_back(std::make_unique<Island>(module("mapper")));
-    islands_.back()->host<mapper::MapperNode>(options.mapper, options.mapper.map_id, steadyClockMillis);
+    islands_.back()->host<mapper::MapperNode>(options.mapper, options.mapper.map_id,
+                                              steadyClockMillis);
     if (options.explorer) {
       islands_.push_back(std::make_unique<Island>(module("explorer")));
       islands_.back()->host<explorer::ExplorerNode>(*options.explorer, steadyClockMillis);

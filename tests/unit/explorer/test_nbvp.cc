@@ -204,7 +204,7 @@ TEST(Nbvp, BranchValueSumsTheDecayedVisibleGainsOfItsNodes) {
 // most the lambda = 0 best value decayed over its first edge.
 TEST(Nbvp, LargeLambdaPrefersTheNearSmallGainToTheFarLargeOne) {
   ExplorerOptions o = optionsFor("nbvp");
-  o.max_draws = 100000;  // the band the tree lives in is thin: most draws steer out of it
+  o.max_draws = 100000;   // the band the tree lives in is thin: most draws steer out of it
   o.min_clearance = 0.6;  // the corridor is 2 m wide: a wider clearance leaves the tree no room
   o.nbvp.initial_nodes = o.nbvp.max_nodes = 100;
   const HandMap map = corridor();

@@ -88,9 +88,9 @@ TEST(TrialFlights, EveryStrategyFliesSafelyAndTheSamePathTwice) {
 
 // E6: the simulator's dynamic obstacle appears on the committed trajectory 2-2.5 m ahead (at the
 // first frame after 5 s with that much committed path left, not winding back toward the vehicle,
-// so not in every trial: a vehicle that hovers or whose path runs short never gets one); the planner's re-check finds the trajectory
-// blocked on a later map and stops or replans, and the vehicle never comes within the robot
-// radius of it, nor of anything else.
+// so not in every trial: a vehicle that hovers or whose path runs short never gets one); the
+// planner's re-check finds the trajectory blocked on a later map and stops or replans, and the
+// vehicle never comes within the robot radius of it, nor of anything else.
 TEST(TrialFlights, StopShortOfAnObstacleThatAppearsOnTheCommittedPath) {
   for (const char* method : {"local_exploration", "none"}) {
     RunOptions options = paper(0.2, 30);
