@@ -8,17 +8,36 @@
 
 namespace thicket {
 
+namespace {
+
+// One compression and one decompression context per thread, kept: creating a context allocates
+// and clears its tables, which costs more than compressing a 16^3 map block. Each call sets every
+// parameter it depends on, so nothing carries over from the previous frame.
+ZSTD_CCtx* compressionContext() {
+  thread_local const std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> context(ZSTD_createCCtx(),
+                                                                                ZSTD_freeCCtx);
+  if (!context) throw std::runtime_error("zstd: out of memory");
+  return context.get();
+}
+
+ZSTD_DCtx* decompressionContext() {
+  thread_local const std::unique_ptr<ZSTD_DCtx, size_t (*)(ZSTD_DCtx*)> context(ZSTD_createDCtx(),
+                                                                                ZSTD_freeDCtx);
+  if (!context) throw std::runtime_error("zstd: out of memory");
+  return context.get();
+}
+
+}  // namespace
+
 std::vector<uint8_t> zstdCompress(std::span<const uint8_t> raw, int level) {
   // The frame carries a checksum of its content, so that decompression catches corruption
   // (a flipped byte in a map file) instead of returning wrong voxels.
-  const std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> context(ZSTD_createCCtx(),
-                                                                   ZSTD_freeCCtx);
-  if (!context) throw std::runtime_error("zstd: out of memory");
-  ZSTD_CCtx_setParameter(context.get(), ZSTD_c_compressionLevel, level);
-  ZSTD_CCtx_setParameter(context.get(), ZSTD_c_checksumFlag, 1);
+  ZSTD_CCtx* context = compressionContext();
+  ZSTD_CCtx_reset(context, ZSTD_reset_session_and_parameters);
+  ZSTD_CCtx_setParameter(context, ZSTD_c_compressionLevel, level);
+  ZSTD_CCtx_setParameter(context, ZSTD_c_checksumFlag, 1);
   std::vector<uint8_t> frame(ZSTD_compressBound(raw.size()));
-  const size_t size =
-      ZSTD_compress2(context.get(), frame.data(), frame.size(), raw.data(), raw.size());
+  const size_t size = ZSTD_compress2(context, frame.data(), frame.size(), raw.data(), raw.size());
   if (ZSTD_isError(size)) throw std::runtime_error(ZSTD_getErrorName(size));
   frame.resize(size);
   return frame;
@@ -35,7 +54,8 @@ Expected<std::vector<uint8_t>> zstdDecompress(std::span<const uint8_t> frame,
                       ", expected " + std::to_string(expected_size));
   }
   std::vector<uint8_t> raw(expected_size);
-  const size_t size = ZSTD_decompress(raw.data(), raw.size(), frame.data(), frame.size());
+  const size_t size = ZSTD_decompressDCtx(decompressionContext(), raw.data(), raw.size(),
+                                          frame.data(), frame.size());
   if (ZSTD_isError(size) || size != expected_size) {
     return unexpected(std::string("zstd payload does not decompress: ") +
                       (ZSTD_isError(size) ? ZSTD_getErrorName(size) : "short"));

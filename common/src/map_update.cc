@@ -42,36 +42,25 @@ void encodeVoxel(const EsdfVoxel& voxel, uint8_t*& out) {
       static_cast<uint8_t>((voxel.observed ? kObservedBit : 0) | (voxel.fixed ? kFixedBit : 0));
 }
 
-Expected<TsdfVoxel> decodeTsdfVoxel(const uint8_t*& in) {
-  TsdfVoxel voxel;
+// Decodes one voxel into `voxel`; what is wrong with it, or nullptr. A block holds 4096 voxels,
+// so this stays free of allocations.
+const char* decodeVoxel(const uint8_t*& in, TsdfVoxel& voxel) {
   voxel.distance = getFloat(in);
   voxel.weight = getFloat(in);
   if (!std::isfinite(voxel.distance) || !(voxel.weight >= 0) || !std::isfinite(voxel.weight)) {
-    return unexpected("a TSDF voxel has a non-finite distance or a bad weight");
+    return "a TSDF voxel has a non-finite distance or a bad weight";
   }
-  return voxel;
+  return nullptr;
 }
 
-Expected<EsdfVoxel> decodeEsdfVoxel(const uint8_t*& in) {
-  EsdfVoxel voxel;
+const char* decodeVoxel(const uint8_t*& in, EsdfVoxel& voxel) {
   voxel.distance = getFloat(in);
   const uint8_t flags = *in++;
-  if (!std::isfinite(voxel.distance)) return unexpected("an ESDF voxel has a non-finite distance");
-  if ((flags & ~(kObservedBit | kFixedBit)) != 0) {
-    return unexpected("an ESDF voxel has unknown flag bits");
-  }
+  if (!std::isfinite(voxel.distance)) return "an ESDF voxel has a non-finite distance";
+  if ((flags & ~(kObservedBit | kFixedBit)) != 0) return "an ESDF voxel has unknown flag bits";
   voxel.observed = (flags & kObservedBit) != 0;
   voxel.fixed = (flags & kFixedBit) != 0;
-  return voxel;
-}
-
-template <class Voxel>
-Expected<Voxel> decodeVoxel(const uint8_t*& in) {
-  if constexpr (std::is_same_v<Voxel, TsdfVoxel>) {
-    return decodeTsdfVoxel(in);
-  } else {
-    return decodeEsdfVoxel(in);
-  }
+  return nullptr;
 }
 
 template <class Voxel>
@@ -90,38 +79,38 @@ map_block_t encodeBlock(const Block<Voxel>& block) {
 
 template <class Voxel>
 Expected<std::unique_ptr<Block<Voxel>>> decodeBlock(const map_block_t& msg) {
-  const std::string where = "block [" + std::to_string(msg.index[0]) + ", " +
-                            std::to_string(msg.index[1]) + ", " + std::to_string(msg.index[2]) +
-                            "]: ";
+  // Built only for an error: this runs for every block of every map message.
+  const auto where = [&msg] {
+    return "block [" + std::to_string(msg.index[0]) + ", " + std::to_string(msg.index[1]) + ", " +
+           std::to_string(msg.index[2]) + "]: ";
+  };
   const size_t raw_size = kVoxelsPerBlock * VoxelWire<Voxel>::kBytes;
   if (msg.size < 0 || static_cast<size_t>(msg.size) != msg.data.size()) {
-    return unexpected(where + "size field " + std::to_string(msg.size) + " but " +
+    return unexpected(where() + "size field " + std::to_string(msg.size) + " but " +
                       std::to_string(msg.data.size()) + " bytes of data");
   }
   if (msg.raw_size < 0 || static_cast<size_t>(msg.raw_size) != raw_size) {
-    return unexpected(where + "raw size " + std::to_string(msg.raw_size) + ", expected " +
+    return unexpected(where() + "raw size " + std::to_string(msg.raw_size) + ", expected " +
                       std::to_string(raw_size));
   }
   std::vector<uint8_t> decompressed;
   const uint8_t* in = msg.data.data();
   if (msg.compression == map_block_t::COMPRESSION_ZSTD) {
     auto content = zstdDecompress(msg.data, raw_size);
-    if (!content) return unexpected(where + content.error());
+    if (!content) return unexpected(where() + content.error());
     decompressed = std::move(*content);
     in = decompressed.data();
   } else if (msg.compression == map_block_t::COMPRESSION_NONE) {
     if (msg.data.size() != raw_size) {
-      return unexpected(where + std::to_string(msg.data.size()) + " bytes, expected " +
+      return unexpected(where() + std::to_string(msg.data.size()) + " bytes, expected " +
                         std::to_string(raw_size));
     }
   } else {
-    return unexpected(where + "unknown compression " + std::to_string(msg.compression));
+    return unexpected(where() + "unknown compression " + std::to_string(msg.compression));
   }
   auto block = std::make_unique<Block<Voxel>>(BlockIndex(msg.index[0], msg.index[1], msg.index[2]));
   for (Voxel& voxel : block->voxels) {
-    auto decoded = decodeVoxel<Voxel>(in);
-    if (!decoded) return unexpected(where + decoded.error());
-    voxel = *decoded;
+    if (const char* error = decodeVoxel(in, voxel)) return unexpected(where() + error);
   }
   return block;
 }
