@@ -148,7 +148,8 @@ TEST(ReferenceLogs, TogetherExerciseThePlannerAndTheExplorer) {
 class ReplayDiff : public testing::TempDirTest {
  protected:
   static const std::vector<LogEvent>& events() {
-    static const std::vector<LogEvent> events = readEvents(referenceLog("paper_local_exploration"));
+    static const std::vector<LogEvent> events =
+        readEvents(referenceLog("paper_short_local_exploration"));
     return events;
   }
   static GraphOptions options() {
@@ -173,7 +174,7 @@ class ReplayDiff : public testing::TempDirTest {
 TEST_F(ReplayDiff, AChangedPlannerOptionShowsByChannelMessageAndField) {
   GraphOptions changed = options();
   changed.planner.planner.loco.w_g *= 1.01;
-  const CheckResult result = checkEvents(events(), changed, types(), 50);
+  const CheckResult result = checkEvents(events(), changed, types(), 1000);
   EXPECT_FALSE(result.equal);
   // The map does not depend on the planner: only what the planner (and the explorer answering
   // it) publishes differs.
@@ -253,7 +254,7 @@ TEST_F(ReplayDiff, AMissingOutputChannelIsReported) {
 }
 
 TEST_F(ReplayDiff, ATornLogIsReportedAndFails) {
-  const std::string whole = referenceLog("paper_local_exploration");
+  const std::string whole = referenceLog("paper_short_local_exploration");
   const std::string torn = tempPath("torn.lcm");
   std::filesystem::copy_file(whole, torn);
   // The last event, cut in the middle.

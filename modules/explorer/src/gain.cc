@@ -44,8 +44,8 @@ uint64_t mortonCode(int64_t i, int64_t j, int64_t k) {
 
 // TSDF voxel lookups through a small direct-mapped cache of blocks: a frustum spans a few dozen
 // blocks, and consecutive frustum points (and the voxels of a ray) mostly share one, so nearly
-// every lookup skips the hash map. Blocks whose indices agree modulo 4 on every axis (12.8 m
-// apart at 0.2 m voxels, more than the default frustum's extent) share a slot.
+// every lookup skips the hash map. Blocks whose indices agree modulo 4 on every axis (6.4 m apart
+// at 0.1 m voxels) share a slot: a conflict costs one more lookup, never a wrong voxel.
 class VoxelLookup {
  public:
   explicit VoxelLookup(const TsdfLayer& layer) : layer_(layer) {}

@@ -25,13 +25,33 @@ struct PixelMeasurement {
 // The per-voxel update rule shared by both methods (see the header).
 class VoxelUpdater {
  public:
-  VoxelUpdater(double voxel_size, double truncation, double max_weight, bool new_surfaces_replace)
+  VoxelUpdater(double voxel_size, double truncation, double max_weight, bool new_surfaces_replace,
+               double new_surface_shadow)
       : voxel_size_(voxel_size),
         truncation_(truncation),
         max_weight_(max_weight),
-        new_surfaces_replace_(new_surfaces_replace) {}
+        new_surfaces_replace_(new_surfaces_replace),
+        new_surface_shadow_(new_surface_shadow) {}
 
   double truncation() const { return truncation_; }
+  double newSurfaceShadow() const { return new_surface_shadow_; }
+
+  // Whether the map has the voxel as clearly free: observed, beyond half the truncation from any
+  // surface. A return there is a new surface.
+  bool clearlyFree(const TsdfVoxel& voxel) const {
+    return voxel.weight > 0 && voxel.distance > 0.5 * truncation_;
+  }
+
+  // Behind a new surface, deeper than the truncation and at most new_surface_shadow deeper:
+  // what the map has there as free is stale, and the voxel becomes unobserved. Returns whether
+  // the voxel was in that shadow and free (it was then reset).
+  bool clearShadow(TsdfVoxel& voxel, double sdf, bool& changed) const {
+    if (!(sdf <= -truncation_ && sdf > -truncation_ - new_surface_shadow_)) return false;
+    if (!(voxel.weight > 0 && voxel.distance > 0)) return false;
+    voxel = TsdfVoxel{};
+    changed = true;
+    return true;
+  }
 
   // Applies the measurement when the voxel is within the truncation behind the surface; returns
   // whether it was applied, and sets changed when the voxel's stored values differ afterwards.
@@ -39,8 +59,7 @@ class VoxelUpdater {
     if (!(sdf > -truncation_)) return false;
     if (sdf < -voxel_size_) weight *= (truncation_ + sdf) / (truncation_ - voxel_size_);
     sdf = std::min(sdf, truncation_);
-    if (new_surfaces_replace_ && std::abs(sdf) <= voxel_size_ && voxel.weight > 0 &&
-        voxel.distance > 0.5 * truncation_) {
+    if (new_surfaces_replace_ && std::abs(sdf) <= voxel_size_ && clearlyFree(voxel)) {
       // A return within a voxel of a voxel the map had as clearly free: something is there now
       // (an obstacle that appeared, or a surface earlier views only passed by). Averaged in, it
       // would take several frames to outweigh the free-space history while the ESDF promised
@@ -71,6 +90,7 @@ class VoxelUpdater {
   double truncation_;
   double max_weight_;
   bool new_surfaces_replace_;
+  double new_surface_shadow_;
 };
 
 double measurementWeight(double depth) {
@@ -144,7 +164,7 @@ std::vector<float> surfaceCosines(const DepthImage& image, const TsdfIntegratorO
   const int height = camera.height;
   const double range = options.max_integration_range;
   std::vector<float> cosines(image.depth.size(), 1.0f);
-  if (!options.normal_distances) return cosines;
+  if (!options.normal_distances && !(options.new_surface_shadow > 0)) return cosines;
   const auto valid = [&](double d) { return d >= image.min_range && d > 0 && d <= range; };
   const auto point = [&](int u, int v) {
     return camera.backProject(u, v, image.depth[static_cast<size_t>(v) * width + u]);
@@ -180,6 +200,63 @@ std::vector<float> surfaceCosines(const DepthImage& image, const TsdfIntegratorO
     }
   }
   return cosines;
+}
+
+// How many voxels behind a return must be clearly free, as well as the return's own, for it to
+// be a new surface. The return's own voxel alone is not enough: at a trunk's silhouette, rays that
+// passed beside the trunk through a voxel the surface cuts left it clearly free (the TSDF stores
+// the distance to each ray's own return), and a later view that hits the trunk there is no new
+// surface. Three voxels deep the probes are inside the trunk, which no ray saw free; inside an
+// obstacle that appeared where the map saw free space they are not.
+constexpr int kNewSurfaceProbes = 3;
+// Returns seen at a slant steeper than this cosine are no evidence of a new surface: near a
+// trunk's silhouette a ray runs a short chord through the trunk and the probes come out beside
+// it, where the map rightly has free space.
+constexpr double kMinNewSurfaceCosine = 0.5;
+
+// The pixels that see a new surface (1; else 0): a return within the integration range whose
+// voxel and the kNewSurfaceProbes voxels behind it along the ray the map has as clearly free,
+// before this frame changes anything. Behind such a return the map's free space is stale (an
+// obstacle appeared where it saw free space), so the integrators reset it
+// (VoxelUpdater::clearShadow). Empty when no pixel does or the shadow is off.
+std::vector<uint8_t> newSurfacePixels(const DepthImage& image, const Pose& world_T_camera,
+                                      const std::vector<float>& cosines,
+                                      const TsdfIntegratorOptions& options,
+                                      const VoxelUpdater& updater, const TsdfLayer& layer) {
+  if (!(updater.newSurfaceShadow() > 0)) return {};
+  const PinholeCamera& camera = image.camera;
+  const double step = layer.voxelSize();
+  std::vector<uint8_t> flags;
+  // Consecutive probes mostly land in one block: it is looked up only when that changes.
+  BlockIndex cached_index = BlockIndex::Constant(std::numeric_limits<int>::min());
+  const TsdfLayer::BlockType* cached = nullptr;
+  const auto clearlyFree = [&](const Eigen::Vector3d& p) {
+    const VoxelIndex voxel = layer.voxelIndex(p);
+    const BlockIndex b = blockOfVoxel(voxel);
+    if (b != cached_index) {
+      cached_index = b;
+      cached = layer.block(b);
+    }
+    return cached && updater.clearlyFree(cached->voxels[linearIndexInBlock(voxel)]);
+  };
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const size_t i = static_cast<size_t>(v) * camera.width + u;
+      const double depth = image.depth[i];
+      const PixelMeasurement m = measurePixel(depth, 1.0, image, options.max_integration_range);
+      if (m.weight == 0 || !std::isinf(m.max_voxel)) continue;  // not a return within range
+      if (cosines[i] < kMinNewSurfaceCosine) continue;
+      const Eigen::Vector3d ray = world_T_camera.orientation * camera.backProject(u, v, 1.0);
+      const Eigen::Vector3d hit = world_T_camera.position + depth * ray;
+      const Eigen::Vector3d deeper = step * ray.normalized();
+      bool stale = true;
+      for (int k = 0; k <= kNewSurfaceProbes && stale; ++k) stale = clearlyFree(hit + k * deeper);
+      if (!stale) continue;
+      if (flags.empty()) flags.assign(image.depth.size(), 0);
+      flags[i] = 1;
+    }
+  }
+  return flags;
 }
 
 // A voxel's signed distance from the line-of-sight distance `along` and the pixel's factor to
@@ -260,9 +337,13 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
                                           const VoxelUpdater& updater, TsdfLayer& layer) {
   const PinholeCamera& camera = image.camera;
   const Pose camera_T_world = world_T_camera.inverse();
+  const std::vector<float> cosines = surfaceCosines(image, options);
+  const std::vector<uint8_t> shadow =
+      newSurfacePixels(image, world_T_camera, cosines, options, updater, layer);
   // No voxel beyond this is updated: surfaces end at the integration range, plus the truncation
-  // behind them.
-  const double max_depth = options.max_integration_range + updater.truncation();
+  // behind them (and the shadow of a new surface).
+  const double max_depth = options.max_integration_range + updater.truncation() +
+                           (shadow.empty() ? 0.0 : updater.newSurfaceShadow());
   const Eigen::Matrix3d camera_R_world = camera_T_world.orientation.toRotationMatrix();
   const Eigen::Matrix3d steps = camera_R_world * layer.voxelSize();  // column a: one voxel along a
   const Eigen::Vector3d step = steps.col(0);
@@ -272,7 +353,6 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
   // 0 < z <= max_depth, are linear in a row's voxel index i.
   const double column_offset = camera.cx + 0.5;
   const double row_offset = camera.cy + 0.5;
-  const std::vector<float> cosines = surfaceCosines(image, options);
 
   TsdfIntegrationResult result;
   // New blocks are filled here first and allocated only if some voxel was updated.
@@ -320,8 +400,10 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
           // along the surface normal.
           const double to_surface =
               options.normal_distances ? p.norm() * inverse_z * cosines[pixel] : 1.0;
-          if (updater.update(row_voxels[i], towardSurface(m.distance - z, to_surface), m.weight,
-                             changed)) {
+          const double sdf = towardSurface(m.distance - z, to_surface);
+          if (updater.update(row_voxels[i], sdf, m.weight, changed) ||
+              (!shadow.empty() && shadow[pixel] &&
+               updater.clearShadow(row_voxels[i], sdf, changed))) {
             ++updated;
           }
         }
@@ -365,6 +447,8 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
                                        const VoxelUpdater& updater, TsdfLayer& layer) {
   const std::vector<PixelMeasurement> pixels = measurePixelsAlongRays(image, options);
   const std::vector<float> cosines = surfaceCosines(image, options);
+  const std::vector<uint8_t> shadow =
+      newSurfacePixels(image, world_T_camera, cosines, options, updater, layer);
   const PinholeCamera& camera = image.camera;
   const double voxel_size = layer.voxelSize();
   const Eigen::Vector3d& origin = world_T_camera.position;
@@ -379,46 +463,67 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
   BlockIndex cached_index = blockOfVoxel(origin_voxel);
   TsdfLayer::BlockType* cached = layer.block(cached_index);
   bool cached_changed = false;
-  for (int v = 0; v < camera.height; ++v) {
-    for (int u = 0; u < camera.width; ++u) {
-      const size_t pixel = static_cast<size_t>(v) * camera.width + u;
-      const PixelMeasurement& m = pixels[pixel];
-      if (m.weight == 0) continue;
-      const double to_surface = cosines[pixel];
-      const Eigen::Vector3d dir =
-          world_T_camera.orientation * camera.backProject(u, v, 1.0).normalized();
-      const double t_end = std::min(m.distance + updater.truncation(), m.max_voxel);
-      AxisWalk x(origin_voxel.x(), origin_voxels.x(), dir.x(), voxel_size);
-      AxisWalk y(origin_voxel.y(), origin_voxels.y(), dir.y(), voxel_size);
-      AxisWalk z(origin_voxel.z(), origin_voxels.z(), dir.z(), voxel_size);
-      double center_along_ray = origin_center_offset.dot(dir);
-      while (true) {
-        const BlockIndex b(x.voxel >> 4, y.voxel >> 4, z.voxel >> 4);
-        if (b != cached_index) {
-          cached_index = b;
-          cached = layer.block(b);
-          cached_changed = changed_set.contains(b);
-        }
-        const double sdf = towardSurface(m.distance - center_along_ray, to_surface);
-        if (sdf > -updater.truncation()) {
-          if (!cached) cached = &layer.allocateBlock(b);
-          bool changed = false;
-          const int linear = (x.voxel & 15) + 16 * (y.voxel & 15) + 256 * (z.voxel & 15);
-          updater.update(cached->voxels[linear], sdf, m.weight, changed);
-          ++result.voxels_updated;
-          if (changed && !cached_changed) {
-            changed_set.insert(b);
-            cached_changed = true;
-          }
-        }
-        AxisWalk& next =
-            x.t_next <= y.t_next ? (x.t_next <= z.t_next ? x : z) : (y.t_next <= z.t_next ? y : z);
-        if (next.t_next > t_end) break;
-        next.voxel += next.step;
-        next.t_next += next.t_delta;
-        center_along_ray += next.center_step;
+  // Walks the pixel's ray from the camera up to range t_end: visit(block, linear index, sdf) at
+  // every voxel, block null where none is allocated; visit allocates one when it must, and
+  // returns whether it changed the voxel.
+  const auto walk = [&](size_t pixel, double t_end, auto&& visit) {
+    const PixelMeasurement& m = pixels[pixel];
+    const int u = static_cast<int>(pixel % camera.width);
+    const int v = static_cast<int>(pixel / camera.width);
+    const Eigen::Vector3d dir =
+        world_T_camera.orientation * camera.backProject(u, v, 1.0).normalized();
+    AxisWalk x(origin_voxel.x(), origin_voxels.x(), dir.x(), voxel_size);
+    AxisWalk y(origin_voxel.y(), origin_voxels.y(), dir.y(), voxel_size);
+    AxisWalk z(origin_voxel.z(), origin_voxels.z(), dir.z(), voxel_size);
+    double center_along_ray = origin_center_offset.dot(dir);
+    while (true) {
+      const BlockIndex b(x.voxel >> 4, y.voxel >> 4, z.voxel >> 4);
+      if (b != cached_index) {
+        cached_index = b;
+        cached = layer.block(b);
+        cached_changed = changed_set.contains(b);
       }
+      const double sdf = towardSurface(m.distance - center_along_ray,
+                                       options.normal_distances ? cosines[pixel] : 1.0);
+      const int linear = (x.voxel & 15) + 16 * (y.voxel & 15) + 256 * (z.voxel & 15);
+      if (visit(b, linear, sdf) && !cached_changed) {
+        changed_set.insert(b);
+        cached_changed = true;
+      }
+      AxisWalk& next =
+          x.t_next <= y.t_next ? (x.t_next <= z.t_next ? x : z) : (y.t_next <= z.t_next ? y : z);
+      if (next.t_next > t_end) break;
+      next.voxel += next.step;
+      next.t_next += next.t_delta;
+      center_along_ray += next.center_step;
     }
+  };
+  // The shadows of new surfaces first: a voxel there that another ray of this frame sees is
+  // then measured by it, not reset after it was.
+  for (size_t pixel = 0; pixel < shadow.size(); ++pixel) {
+    if (!shadow[pixel]) continue;
+    const double t_end = pixels[pixel].distance + updater.truncation() + updater.newSurfaceShadow();
+    walk(pixel, t_end, [&](const BlockIndex&, int linear, double sdf) {
+      bool changed = false;
+      if (cached && updater.clearShadow(cached->voxels[linear], sdf, changed)) {
+        ++result.voxels_updated;
+      }
+      return changed;
+    });
+  }
+  for (size_t pixel = 0; pixel < pixels.size(); ++pixel) {
+    const PixelMeasurement& m = pixels[pixel];
+    if (m.weight == 0) continue;
+    const double t_end = std::min(m.distance + updater.truncation(), m.max_voxel);
+    walk(pixel, t_end, [&](const BlockIndex& b, int linear, double sdf) {
+      bool changed = false;
+      if (sdf > -updater.truncation()) {
+        if (!cached) cached = &layer.allocateBlock(b);
+        updater.update(cached->voxels[linear], sdf, m.weight, changed);
+        ++result.voxels_updated;
+      }
+      return changed;
+    });
   }
   result.changed_blocks.assign(changed_set.begin(), changed_set.end());
   std::sort(result.changed_blocks.begin(), result.changed_blocks.end(), indexLess);
@@ -442,6 +547,10 @@ void TsdfIntegratorOptions::declare(Params& p) {
   p("new_surfaces_replace", new_surfaces_replace,
     "a return within a voxel of a voxel the map had as clearly free (beyond half the "
     "truncation) replaces its history instead of being averaged in");
+  p("new_surface_shadow", new_surface_shadow,
+    "behind a return in a voxel the map had as clearly free, the free space this much deeper than "
+    "the truncation becomes unobserved, being stale; 0: off [m]",
+    Range::atLeast(0));
 }
 
 TsdfIntegrator::TsdfIntegrator(TsdfIntegratorOptions options) : options_(options) {
@@ -456,6 +565,9 @@ TsdfIntegrator::TsdfIntegrator(TsdfIntegratorOptions options) : options_(options
   if (!positive(options_.max_weight)) {
     throw std::invalid_argument("TsdfIntegrator: max_weight must be positive and finite");
   }
+  if (!(std::isfinite(options_.new_surface_shadow) && options_.new_surface_shadow >= 0)) {
+    throw std::invalid_argument("TsdfIntegrator: new_surface_shadow must be finite and >= 0");
+  }
   if (options_.method != Method::kProjective && options_.method != Method::kRaycast) {
     throw std::invalid_argument("TsdfIntegrator: unknown method");
   }
@@ -467,7 +579,8 @@ TsdfIntegrationResult TsdfIntegrator::integrate(const DepthImage& image, const P
   checkDepths(image);
   const Pose pose{world_T_camera.position, world_T_camera.orientation.normalized()};
   const VoxelUpdater updater(layer.voxelSize(), options_.truncation_voxels * layer.voxelSize(),
-                             options_.max_weight, options_.new_surfaces_replace);
+                             options_.max_weight, options_.new_surfaces_replace,
+                             options_.new_surface_shadow);
   return options_.method == Method::kProjective
              ? integrateProjective(image, pose, options_, updater, layer)
              : integrateRaycast(image, pose, options_, updater, layer);

@@ -25,9 +25,9 @@
 namespace thicket::mapper {
 namespace {
 
-// The certified bound at the default 0.2 m voxels: wherever the true clearance is below the robot
+// The certified bound at the default 0.1 m voxels: wherever the true clearance is below the robot
 // radius, the interpolated ESDF reads at most this much above the robot radius [m].
-constexpr double kCertifiedBound = 0.18;
+constexpr double kCertifiedBound = 0.11;
 constexpr double kRobotRadius = 0.5;
 constexpr double kHorizon = 3.0;
 
@@ -131,7 +131,7 @@ TEST(MapperGroundTruth, LineOfSightDistancesWithoutCrossingSitesBreakTheBound) {
   const Overestimate plain = flyAndMeasure(paperWorld(), options, wallFlight());
   std::printf("along the wall, line of sight and band sites only: up to %.3f m above the radius\n",
               plain.above_radius);
-  EXPECT_GT(plain.above_radius, kCertifiedBound + 0.1);
+  EXPECT_GT(plain.above_radius, kCertifiedBound + 0.05);
 }
 
 }  // namespace

@@ -303,6 +303,88 @@ TEST_P(TsdfIntegratorTest, NoReturnClearsUpToIntegrationRange) {
   }
 }
 
+// An obstacle appears where the map saw free space many times: a wall at 4.8 m, then a patch in
+// the middle of the image at 1.5 m. Its surface is in the map at once (new_surfaces_replace), and
+// the free space behind it, from the truncation down to new_surface_shadow deeper, becomes
+// unobserved: what the map saw there is stale. Free space outside the patch, and beyond the
+// shadow, is kept; a surface seen again is not new and resets nothing; with the shadow off the
+// stale free space stays.
+TEST_P(TsdfIntegratorTest, NewSurfacesEnterAtOnceAndTheirShadowBecomesUnobserved) {
+  const double vs = voxelSize();
+  constexpr double kWall = 4.8;
+  constexpr double kPatch = 1.5;
+  const Pose world_T_camera{Eigen::Vector3d(0.5 * vs, 0.5 * vs, 0), Eigen::Quaterniond::Identity()};
+  Frame wall = emptyFrame(world_T_camera);
+  std::fill(wall.image.depth.begin(), wall.image.depth.end(), static_cast<float>(kWall));
+  Frame patch = wall;
+  const PinholeCamera& camera = wall.image.camera;
+  for (int v = 80; v < 160; ++v) {
+    for (int u = 110; u < 210; ++u) patch.image.depth[v * camera.width + u] = kPatch;
+  }
+  // The voxel on the optical axis at optical z = (k + 0.5) voxel sizes, and one beside the patch
+  // (pixel column 40) at about that depth.
+  const auto axis = [&](const TsdfLayer& layer, double z) {
+    const TsdfVoxel* voxel = layer.voxel(layer.voxelIndex(Eigen::Vector3d(0.5 * vs, 0.5 * vs, z)));
+    return voxel ? *voxel : TsdfVoxel{};
+  };
+  const auto beside = [&](const TsdfLayer& layer, double z) {
+    const Eigen::Vector3d p = camera.backProject(40, 120, z);
+    const TsdfVoxel* voxel = layer.voxel(layer.voxelIndex(p));
+    return voxel ? *voxel : TsdfVoxel{};
+  };
+
+  for (const double shadow : {1.0, 0.0}) {
+    SCOPED_TRACE("new_surface_shadow " + std::to_string(shadow));
+    TsdfIntegratorOptions options;
+    options.method = method();
+    options.new_surface_shadow = shadow;
+    const TsdfIntegrator integrator(options);
+    TsdfLayer layer(vs);
+    for (int i = 0; i < 5; ++i) integrator.integrate(wall.image, world_T_camera, layer);
+    const Snapshot before = snapshot(layer);
+    const TsdfIntegrationResult result = integrator.integrate(patch.image, world_T_camera, layer);
+
+    // The patch's surface replaced the free-space history of its voxel.
+    EXPECT_LE(std::abs(axis(layer, kPatch).distance), vs);
+    int reset = 0;
+    const int deep = static_cast<int>(std::round(1.0 / vs));  // the shadow's depth in voxels
+    for (int k = 1; k < deep; ++k) {
+      const double z = kPatch + truncation() + k * vs;
+      const TsdfVoxel voxel = axis(layer, z);
+      if (shadow > 0) {
+        EXPECT_EQ(voxel.weight, 0) << "z " << z;
+        ++reset;
+      } else {
+        EXPECT_GT(voxel.weight, 0) << "z " << z;
+        EXPECT_EQ(voxel.distance, static_cast<float>(truncation())) << "z " << z;
+      }
+      // Beside the patch the same depths are still seen free.
+      EXPECT_GT(beside(layer, z).weight, 0) << "z " << z;
+      EXPECT_EQ(beside(layer, z).distance, static_cast<float>(truncation())) << "z " << z;
+    }
+    EXPECT_EQ(reset, shadow > 0 ? deep - 1 : 0);
+    // Beyond the shadow the free space is kept.
+    for (int k = deep + 1; kPatch + truncation() + k * vs <= kWall - truncation() - vs; ++k) {
+      EXPECT_GT(axis(layer, kPatch + truncation() + k * vs).weight, 0) << "k " << k;
+    }
+    // Every block whose voxels the frame changed, the shadow's included, is reported changed.
+    for (const auto& [key, block] : snapshot(layer)) {
+      if (sameVoxels(block, before.at(key))) continue;
+      const BlockIndex b(std::get<0>(key), std::get<1>(key), std::get<2>(key));
+      EXPECT_TRUE(std::binary_search(result.changed_blocks.begin(), result.changed_blocks.end(), b,
+                                     indexLess));
+    }
+
+    // Seen again, the patch is no new surface: nothing more is reset.
+    int observed_before = 0;
+    forEachObserved(layer, [&](const Eigen::Vector3d&, const TsdfVoxel&) { ++observed_before; });
+    integrator.integrate(patch.image, world_T_camera, layer);
+    int observed_after = 0;
+    forEachObserved(layer, [&](const Eigen::Vector3d&, const TsdfVoxel&) { ++observed_after; });
+    EXPECT_EQ(observed_after, observed_before);
+  }
+}
+
 // The projective integrator skips each voxel row's stretch outside the image analytically; in
 // empty space it must still update exactly the voxels whose centres project into the image at
 // optical z in (0, range], found here by brute force, from cameras at random poses.

@@ -19,6 +19,7 @@
 #include "temp_dir_test.h"
 #include "thicket/common/statistics.h"
 #include "thicket/explorer/gain.h"
+#include "thicket/mapper/mapper.h"
 #include "trials.h"
 
 namespace thicket::bench {
@@ -26,6 +27,7 @@ namespace {
 
 using std::numbers::pi;
 
+// The voxel size of the synthetic maps below.
 constexpr double kVoxel = 0.2;
 const char* const kHeader =
     "fraction,stride,poses,mean_abs_error,p95_abs_error,max_abs_error,median_us,speedup";
@@ -61,7 +63,7 @@ TEST(Subsampling, MirroredMapCoversTheWholeFlight) {
   const FlownMap& map = flownMap();
   ASSERT_NE(map.tsdf, nullptr);
   ASSERT_FALSE(map.path.empty());
-  EXPECT_EQ(map.tsdf->voxelSize(), kVoxel);
+  EXPECT_EQ(map.tsdf->voxelSize(), mapper::MapperOptions{}.voxel_size);  // what the graph flies
   const Eigen::Vector3d start = map.path.front().position;
   int beyond = 0, seen = 0;
   double farthest = 0;
@@ -231,7 +233,7 @@ TEST(Subsampling, RowsAggregateThePerPoseErrorsOnAFlownMap) {
   const auto rows = measureSubsampling({flownMap().tsdf.get()}, poses, fractions);
   ASSERT_TRUE(rows) << rows.error();
   ASSERT_EQ(rows->size(), fractions.size());
-  const explorer::ExplorationGain gain(explorer::GainOptions{}, kVoxel);
+  const explorer::ExplorationGain gain(explorer::GainOptions{}, flownMap().tsdf->voxelSize());
   std::vector<double> exact;
   for (const GainPose& p : poses) {
     exact.push_back(gain.unknownFraction(*flownMap().tsdf, p.world_T_camera).unknown_fraction);

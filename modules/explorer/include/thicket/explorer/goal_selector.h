@@ -98,7 +98,7 @@ struct ExplorerOptions {
   /// Candidates must be this far from obstacles in the ESDF, so the planner can end there, and
   /// the RRT* and NBVP trees keep it: the planner's acceptance, robot radius + clearance margin
   /// (local_planner's LocoOptions) [m].
-  double min_clearance = 0.69;
+  double min_clearance = 0.62;
   /// local_exploration: candidates must be reachable from the start along a straight line that
   /// keeps the clearance RRT* and NBVP trees keep (treeClearance).
   bool reachable = false;

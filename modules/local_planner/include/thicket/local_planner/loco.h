@@ -70,10 +70,10 @@ struct LocoOptions {
   double sample_dt = 0.1;         ///< Δt of the collision integral [s]
   /// Accepted samples need distance >= robot_radius + this. Derived, not tuned: the mapper's
   /// certified bound on how far above the robot radius the ESDF can read where the vehicle would
-  /// be in collision (0.18 m at the default 0.2 m voxels, measured by `thicket-bench clearance`;
+  /// be in collision (0.11 m at the default 0.1 m voxels, measured by `thicket-bench clearance`;
   /// README), plus the most the distance can dip between two acceptance samples 0.02 s apart at
   /// v_max (0.01 m) [m].
-  double clearance_margin = 0.19;
+  double clearance_margin = 0.12;
   double v_max = 1.0;  ///< [m/s]
   double a_max = 2.0;  ///< [m/s²]
   int segments = 3;

@@ -26,7 +26,7 @@
 namespace thicket::mapper {
 
 struct MapperOptions {
-  double voxel_size = 0.2;  ///< [m]
+  double voxel_size = 0.1;  ///< [m]
   TsdfIntegratorOptions tsdf;
   EsdfIntegratorOptions esdf;
   PoseHistoryOptions poses;

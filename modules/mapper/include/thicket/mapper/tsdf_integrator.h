@@ -8,7 +8,9 @@
 // truncation behind the surface are not touched. A voxel moves to the weighted mean
 //   d = (w_old d_old + w sdf) / (w_old + w),   weight = min(w_old + w, max_weight),
 // so a saturated voxel keeps following new measurements, except that a return within a voxel of a
-// voxel stored as clearly free replaces it (new_surfaces_replace). Pixels that see nothing within
+// voxel stored as clearly free replaces it (new_surfaces_replace), and that behind a return in
+// such a voxel the free space of the next new_surface_shadow metres past the truncation is reset
+// to unobserved. Pixels that see nothing within
 // range (no return, a return beyond the sensor's max_range or beyond max_integration_range) clear
 // the space they looked through up to max_integration_range: sdf = truncation, or the distance to
 // the return when it is known and closer than that, with the weight of a return at the end of the
@@ -55,6 +57,14 @@ struct TsdfIntegratorOptions {
   /// appears where the map saw free space many times is in the map at once, not a few frames
   /// later. Only distances toward a surface jump; free space still builds up over frames.
   bool new_surfaces_replace = true;
+  /// Behind a new surface (a return in a voxel the map had as clearly free, before the frame),
+  /// the voxels the map has as free from the truncation down to this much deeper along the pixel's
+  /// line of sight become unobserved again [m]; 0: off. What the map saw there was seen before
+  /// the surface appeared and is stale: the hidden part of an obstacle that appeared (a door that
+  /// swung in, a branch) must not read as free space, and the ESDF treats unobserved space near
+  /// the vehicle as occupied until a view shows it. 1 m covers an obstacle up to 1 m deep behind
+  /// its visible face, such as the simulator's dynamic obstacle.
+  double new_surface_shadow = 1.0;
 
   void declare(Params& p);
 };
