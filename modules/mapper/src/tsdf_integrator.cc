@@ -42,11 +42,12 @@ class VoxelUpdater {
     return voxel.weight > 0 && voxel.distance > 0.5 * truncation_;
   }
 
-  // Behind a new surface, deeper than the truncation and at most new_surface_shadow deeper:
-  // what the map has there as free is stale, and the voxel becomes unobserved. Returns whether
-  // the voxel was in that shadow and free (it was then reset).
+  // Behind a new surface, more than a voxel deep and at most new_surface_shadow deeper than the
+  // truncation: what the map has there as free is stale, and the voxel becomes unobserved, so
+  // that within the truncation it takes the frame's measurement alone (update) and beyond it
+  // waits for a view. Returns whether the voxel was in that shadow and free (it was then reset).
   bool clearShadow(TsdfVoxel& voxel, double sdf, bool& changed) const {
-    if (!(sdf <= -truncation_ && sdf > -truncation_ - new_surface_shadow_)) return false;
+    if (!(sdf < -voxel_size_ && sdf > -truncation_ - new_surface_shadow_)) return false;
     if (!(voxel.weight > 0 && voxel.distance > 0)) return false;
     voxel = TsdfVoxel{};
     changed = true;
@@ -150,20 +151,27 @@ inline PixelMeasurement measurePixel(double depth, double scale, const DepthImag
   return {distance, range, measurementWeight(range)};
 }
 
-// How much of a distance measured along a pixel's line of sight lies along the surface normal
-// there (options.normal_distances; else 1 everywhere): the cosine of the angle between the ray and
-// the normal estimated from the neighbouring depths, at least kMinSurfaceCosine. A TSDF of raw
-// line-of-sight distances overstates the distance to a surface seen at a slant by 1 / cosine: on a
-// cylinder's flank that promised the planner 0.1-0.3 m of clearance that was not there. Where the
-// normal cannot be estimated (no valid neighbour on an axis) the distance is taken as it is.
+// Per pixel, the cosine of the angle between its ray and the surface normal estimated from the
+// neighbouring depths, at least kMinSurfaceCosine; 0 where no normal can be estimated (no valid
+// neighbour on an axis). Computed when normal distances or new-surface shadows need it; else 0
+// everywhere. With normal_distances it is how much of a distance measured along the line of sight
+// lies along the normal (alongNormal): a TSDF of raw line-of-sight distances overstates the
+// distance to a surface seen at a slant by 1 / cosine, which on a cylinder's flank promised the
+// planner 0.1-0.3 m of clearance that was not there.
 constexpr double kMinSurfaceCosine = 0.3;
+
+// The factor from a line-of-sight distance to one along the normal: the cosine, or 1 (the distance
+// taken as it is) where no normal was estimated.
+inline double alongNormal(float cosine) {
+  return cosine > 0 ? cosine : 1.0;
+}
 
 std::vector<float> surfaceCosines(const DepthImage& image, const TsdfIntegratorOptions& options) {
   const PinholeCamera& camera = image.camera;
   const int width = camera.width;
   const int height = camera.height;
   const double range = options.max_integration_range;
-  std::vector<float> cosines(image.depth.size(), 1.0f);
+  std::vector<float> cosines(image.depth.size(), 0.0f);
   if (!options.normal_distances && !(options.new_surface_shadow > 0)) return cosines;
   const auto valid = [&](double d) { return d >= image.min_range && d > 0 && d <= range; };
   const auto point = [&](int u, int v) {
@@ -214,19 +222,26 @@ constexpr int kNewSurfaceProbes = 3;
 // it, where the map rightly has free space.
 constexpr double kMinNewSurfaceCosine = 0.5;
 
-// The pixels that see a new surface (1; else 0): a return within the integration range whose
-// voxel and the kNewSurfaceProbes voxels behind it along the ray the map has as clearly free,
-// before this frame changes anything. Behind such a return the map's free space is stale (an
-// obstacle appeared where it saw free space), so the integrators reset it
-// (VoxelUpdater::clearShadow). Empty when no pixel does or the shadow is off.
-std::vector<uint8_t> newSurfacePixels(const DepthImage& image, const Pose& world_T_camera,
-                                      const std::vector<float>& cosines,
-                                      const TsdfIntegratorOptions& options,
-                                      const VoxelUpdater& updater, const TsdfLayer& layer) {
-  if (!(updater.newSurfaceShadow() > 0)) return {};
+// The pixels that see a new surface: a return within the integration range (as optical z),
+// seen at a cosine of at least kMinNewSurfaceCosine, whose voxel and the kNewSurfaceProbes voxels
+// behind it along the ray the map has as clearly free, before this frame changes anything. Behind
+// such a return the map's free space is stale (an obstacle appeared where it saw free space), so
+// the integrators reset it (VoxelUpdater::clearShadow).
+struct NewSurfaces {
+  std::vector<uint8_t> pixels;  ///< 1 for a pixel that sees one; empty when none does
+  double max_depth = 0;         ///< the largest optical z of such a return [m]
+  bool at(size_t pixel) const { return !pixels.empty() && pixels[pixel] != 0; }
+};
+
+NewSurfaces newSurfacePixels(const DepthImage& image, const Pose& world_T_camera,
+                             const std::vector<float>& cosines,
+                             const TsdfIntegratorOptions& options, const VoxelUpdater& updater,
+                             const TsdfLayer& layer) {
+  NewSurfaces found;
+  if (!(updater.newSurfaceShadow() > 0)) return found;
   const PinholeCamera& camera = image.camera;
   const double step = layer.voxelSize();
-  std::vector<uint8_t> flags;
+  std::vector<uint8_t>& flags = found.pixels;
   // Consecutive probes mostly land in one block: it is looked up only when that changes.
   BlockIndex cached_index = BlockIndex::Constant(std::numeric_limits<int>::min());
   const TsdfLayer::BlockType* cached = nullptr;
@@ -254,9 +269,10 @@ std::vector<uint8_t> newSurfacePixels(const DepthImage& image, const Pose& world
       if (!stale) continue;
       if (flags.empty()) flags.assign(image.depth.size(), 0);
       flags[i] = 1;
+      found.max_depth = std::max(found.max_depth, depth);
     }
   }
-  return flags;
+  return found;
 }
 
 // A voxel's signed distance from the line-of-sight distance `along` and the pixel's factor to
@@ -338,12 +354,14 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
   const PinholeCamera& camera = image.camera;
   const Pose camera_T_world = world_T_camera.inverse();
   const std::vector<float> cosines = surfaceCosines(image, options);
-  const std::vector<uint8_t> shadow =
+  const NewSurfaces shadow =
       newSurfacePixels(image, world_T_camera, cosines, options, updater, layer);
   // No voxel beyond this is updated: surfaces end at the integration range, plus the truncation
-  // behind them (and the shadow of a new surface).
-  const double max_depth = options.max_integration_range + updater.truncation() +
-                           (shadow.empty() ? 0.0 : updater.newSurfaceShadow());
+  // behind them; the shadows of new surfaces reach new_surface_shadow deeper.
+  const double max_depth =
+      std::max(options.max_integration_range,
+               shadow.pixels.empty() ? 0.0 : shadow.max_depth + updater.newSurfaceShadow()) +
+      updater.truncation();
   const Eigen::Matrix3d camera_R_world = camera_T_world.orientation.toRotationMatrix();
   const Eigen::Matrix3d steps = camera_R_world * layer.voxelSize();  // column a: one voxel along a
   const Eigen::Vector3d step = steps.col(0);
@@ -399,13 +417,12 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
           // The optical-z difference as a distance along the line of sight (|p| / z), then
           // along the surface normal.
           const double to_surface =
-              options.normal_distances ? p.norm() * inverse_z * cosines[pixel] : 1.0;
+              options.normal_distances ? p.norm() * inverse_z * alongNormal(cosines[pixel]) : 1.0;
           const double sdf = towardSurface(m.distance - z, to_surface);
-          if (updater.update(row_voxels[i], sdf, m.weight, changed) ||
-              (!shadow.empty() && shadow[pixel] &&
-               updater.clearShadow(row_voxels[i], sdf, changed))) {
-            ++updated;
-          }
+          // The stale free space behind a new surface goes first, so that what the frame
+          // measures there is all the voxel holds.
+          const bool reset = shadow.at(pixel) && updater.clearShadow(row_voxels[i], sdf, changed);
+          if (updater.update(row_voxels[i], sdf, m.weight, changed) || reset) ++updated;
         }
       }
     }
@@ -447,7 +464,7 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
                                        const VoxelUpdater& updater, TsdfLayer& layer) {
   const std::vector<PixelMeasurement> pixels = measurePixelsAlongRays(image, options);
   const std::vector<float> cosines = surfaceCosines(image, options);
-  const std::vector<uint8_t> shadow =
+  const NewSurfaces shadow =
       newSurfacePixels(image, world_T_camera, cosines, options, updater, layer);
   const PinholeCamera& camera = image.camera;
   const double voxel_size = layer.voxelSize();
@@ -483,8 +500,9 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
         cached = layer.block(b);
         cached_changed = changed_set.contains(b);
       }
-      const double sdf = towardSurface(m.distance - center_along_ray,
-                                       options.normal_distances ? cosines[pixel] : 1.0);
+      const double sdf =
+          towardSurface(m.distance - center_along_ray,
+                        options.normal_distances ? alongNormal(cosines[pixel]) : 1.0);
       const int linear = (x.voxel & 15) + 16 * (y.voxel & 15) + 256 * (z.voxel & 15);
       if (visit(b, linear, sdf) && !cached_changed) {
         changed_set.insert(b);
@@ -500,8 +518,10 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
   };
   // The shadows of new surfaces first: a voxel there that another ray of this frame sees is
   // then measured by it, not reset after it was.
-  for (size_t pixel = 0; pixel < shadow.size(); ++pixel) {
-    if (!shadow[pixel]) continue;
+  for (size_t pixel = 0; pixel < shadow.pixels.size(); ++pixel) {
+    // A return within the range as optical z may lie beyond it along the ray, where the ray
+    // caster integrates no surface.
+    if (!shadow.pixels[pixel] || !std::isinf(pixels[pixel].max_voxel)) continue;
     const double t_end = pixels[pixel].distance + updater.truncation() + updater.newSurfaceShadow();
     walk(pixel, t_end, [&](const BlockIndex&, int linear, double sdf) {
       bool changed = false;

@@ -8,14 +8,14 @@
 // truncation behind the surface are not touched. A voxel moves to the weighted mean
 //   d = (w_old d_old + w sdf) / (w_old + w),   weight = min(w_old + w, max_weight),
 // so a saturated voxel keeps following new measurements, except that a return within a voxel of a
-// voxel stored as clearly free replaces it (new_surfaces_replace), and that behind a return in
-// such a voxel the free space of the next new_surface_shadow metres past the truncation is reset
-// to unobserved. Pixels that see nothing within
-// range (no return, a return beyond the sensor's max_range or beyond max_integration_range) clear
-// the space they looked through up to max_integration_range: sdf = truncation, or the distance to
-// the return when it is known and closer than that, with the weight of a return at the end of the
-// integration range, 1 / max_integration_range^2, so clearing never outweighs a real surface.
-// Returns below the image's min_range are not measurements and are ignored.
+// voxel stored as clearly free replaces it (new_surfaces_replace), and that behind a new surface
+// the free space down to new_surface_shadow past the truncation is reset to unobserved first.
+// Pixels that see nothing within range (no return, a return beyond the sensor's max_range or beyond
+// max_integration_range) clear the space they looked through up to max_integration_range: sdf =
+// truncation, or the distance to the return when it is known and closer than that, with the weight
+// of a return at the end of the integration range, 1 / max_integration_range^2, so clearing never
+// outweighs a real surface. Returns below the image's min_range are not measurements and are
+// ignored.
 #pragma once
 
 #include <cstdint>
@@ -57,13 +57,19 @@ struct TsdfIntegratorOptions {
   /// appears where the map saw free space many times is in the map at once, not a few frames
   /// later. Only distances toward a surface jump; free space still builds up over frames.
   bool new_surfaces_replace = true;
-  /// Behind a new surface (a return in a voxel the map had as clearly free, before the frame),
-  /// the voxels the map has as free from the truncation down to this much deeper along the pixel's
-  /// line of sight become unobserved again [m]; 0: off. What the map saw there was seen before
-  /// the surface appeared and is stale: the hidden part of an obstacle that appeared (a door that
-  /// swung in, a branch) must not read as free space, and the ESDF treats unobserved space near
-  /// the vehicle as occupied until a view shows it. 1 m covers an obstacle up to 1 m deep behind
-  /// its visible face, such as the simulator's dynamic obstacle.
+  /// Behind a new surface, the voxels the map has as free from one voxel behind it down to this
+  /// much deeper than the truncation become unobserved again [m]; 0: off. A new surface is a
+  /// return within the integration range, seen at a cosine of at least 0.5 to the estimated
+  /// normal, whose voxel and the three voxels behind it along the ray the map had as clearly free
+  /// before the frame (the probes and the cosine keep trunks seen again at their silhouettes
+  /// out). What the map saw there was seen before the surface appeared and is stale: the hidden
+  /// part of an obstacle that appeared (a door that swung in, a branch) must not read as free
+  /// space. Within the truncation the voxels then take the frame's measurement alone; deeper,
+  /// they wait for a view, and the ESDF treats them as it treats unobserved space (occupied near
+  /// the vehicle, within its occupied radius). Depths are the method's own: optical z for the
+  /// projective integrator, range along the ray for the ray caster. 1 m covers an obstacle up to
+  /// 1 m deep behind its visible face, such as the simulator's dynamic obstacle; one thinner than
+  /// the probes (three voxels) draws no shadow.
   double new_surface_shadow = 1.0;
 
   void declare(Params& p);
@@ -84,7 +90,7 @@ class TsdfIntegrator {
   static constexpr double kMinWeightDepth = 0.1;
 
   /// Throws std::invalid_argument unless the truncation, range and maximum weight are positive
-  /// and finite and the method is known.
+  /// and finite, new_surface_shadow is finite and not negative, and the method is known.
   explicit TsdfIntegrator(TsdfIntegratorOptions options);
 
   const TsdfIntegratorOptions& options() const { return options_; }
