@@ -614,7 +614,21 @@ TEST(TsdfIntegrator, RefusesBadInput) {
     options = {};
     options.max_weight = bad;
     EXPECT_THROW(TsdfIntegrator{options}, std::invalid_argument);
+    if (bad != 0) {  // 0 turns the shadow off
+      options = {};
+      options.new_surface_shadow = bad;
+      EXPECT_THROW(TsdfIntegrator{options}, std::invalid_argument);
+    }
   }
+  TsdfIntegratorOptions off;
+  off.new_surface_shadow = 0;
+  EXPECT_NO_THROW(TsdfIntegrator{off});
+  // A parameter file cannot ask for a negative shadow either.
+  EXPECT_EQ(loadParamsFromString<TsdfIntegratorOptions>("new_surface_shadow: 0.5\n", "test")
+                .new_surface_shadow,
+            0.5);
+  EXPECT_THROW(loadParamsFromString<TsdfIntegratorOptions>("new_surface_shadow: -0.5\n", "test"),
+               std::exception);
 }
 
 TEST(TsdfIntegrator, OptionsLoadFromYaml) {
