@@ -13,16 +13,9 @@ namespace {
 // One compression and one decompression context per thread, kept: creating a context allocates
 // and clears its tables, which costs more than compressing a 16^3 map block. Each call sets every
 // parameter it depends on, so nothing carries over from the previous frame.
-ZSTD_CCtx* compressionContext() {
-  thread_local const std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> context(ZSTD_createCCtx(),
-                                                                                ZSTD_freeCCtx);
-  if (!context) throw std::runtime_error("zstd: out of memory");
-  return context.get();
-}
-
-ZSTD_DCtx* decompressionContext() {
-  thread_local const std::unique_ptr<ZSTD_DCtx, size_t (*)(ZSTD_DCtx*)> context(ZSTD_createDCtx(),
-                                                                                ZSTD_freeDCtx);
+template <class Context, Context* (*create)(), size_t (*destroy)(Context*)>
+Context* threadContext() {
+  thread_local const std::unique_ptr<Context, size_t (*)(Context*)> context(create(), destroy);
   if (!context) throw std::runtime_error("zstd: out of memory");
   return context.get();
 }
@@ -32,7 +25,7 @@ ZSTD_DCtx* decompressionContext() {
 std::vector<uint8_t> zstdCompress(std::span<const uint8_t> raw, int level) {
   // The frame carries a checksum of its content, so that decompression catches corruption
   // (a flipped byte in a map file) instead of returning wrong voxels.
-  ZSTD_CCtx* context = compressionContext();
+  ZSTD_CCtx* context = threadContext<ZSTD_CCtx, ZSTD_createCCtx, ZSTD_freeCCtx>();
   ZSTD_CCtx_reset(context, ZSTD_reset_session_and_parameters);
   ZSTD_CCtx_setParameter(context, ZSTD_c_compressionLevel, level);
   ZSTD_CCtx_setParameter(context, ZSTD_c_checksumFlag, 1);
@@ -54,8 +47,9 @@ Expected<std::vector<uint8_t>> zstdDecompress(std::span<const uint8_t> frame,
                       ", expected " + std::to_string(expected_size));
   }
   std::vector<uint8_t> raw(expected_size);
-  const size_t size = ZSTD_decompressDCtx(decompressionContext(), raw.data(), raw.size(),
-                                          frame.data(), frame.size());
+  const size_t size =
+      ZSTD_decompressDCtx(threadContext<ZSTD_DCtx, ZSTD_createDCtx, ZSTD_freeDCtx>(), raw.data(),
+                          raw.size(), frame.data(), frame.size());
   if (ZSTD_isError(size) || size != expected_size) {
     return unexpected(std::string("zstd payload does not decompress: ") +
                       (ZSTD_isError(size) ? ZSTD_getErrorName(size) : "short"));

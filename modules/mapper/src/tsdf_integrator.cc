@@ -245,7 +245,7 @@ NewSurfaces newSurfacePixels(const DepthImage& image, const Pose& world_T_camera
   // Consecutive probes mostly land in one block: it is looked up only when that changes.
   BlockIndex cached_index = BlockIndex::Constant(std::numeric_limits<int>::min());
   const TsdfLayer::BlockType* cached = nullptr;
-  const auto clearlyFree = [&](const Eigen::Vector3d& p) {
+  const auto clearlyFreeAt = [&](const Eigen::Vector3d& p) {
     const VoxelIndex voxel = layer.voxelIndex(p);
     const BlockIndex b = blockOfVoxel(voxel);
     if (b != cached_index) {
@@ -265,7 +265,7 @@ NewSurfaces newSurfacePixels(const DepthImage& image, const Pose& world_T_camera
       const Eigen::Vector3d hit = world_T_camera.position + depth * ray;
       const Eigen::Vector3d deeper = step * ray.normalized();
       bool stale = true;
-      for (int k = 0; k <= kNewSurfaceProbes && stale; ++k) stale = clearlyFree(hit + k * deeper);
+      for (int k = 0; k <= kNewSurfaceProbes && stale; ++k) stale = clearlyFreeAt(hit + k * deeper);
       if (!stale) continue;
       if (flags.empty()) flags.assign(image.depth.size(), 0);
       flags[i] = 1;

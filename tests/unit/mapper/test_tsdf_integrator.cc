@@ -408,13 +408,13 @@ TEST_P(TsdfIntegratorTest, NewSurfacesEnterAtOnceAndTheirShadowBecomesUnobserved
 // without the probes behind the return and the cosine gate.
 TEST(TsdfIntegrator, AStaticForestFlightKeepsItsFreeSpace) {
   const std::vector<Frame> frames = forestFrames(20);
-  TsdfIntegratorOptions with;
-  TsdfIntegratorOptions without;
-  without.new_surface_shadow = 0;
+  TsdfIntegratorOptions off;
+  off.new_surface_shadow = 0;
+  const TsdfIntegrator with(TsdfIntegratorOptions{}), without(off);
   TsdfLayer a(0.1), b(0.1);
   for (const Frame& frame : frames) {
-    TsdfIntegrator(with).integrate(frame.image, frame.world_T_camera, a);
-    TsdfIntegrator(without).integrate(frame.image, frame.world_T_camera, b);
+    with.integrate(frame.image, frame.world_T_camera, a);
+    without.integrate(frame.image, frame.world_T_camera, b);
   }
   int free_without = 0, lost = 0;
   forEachObserved(b, [&](const Eigen::Vector3d& c, const TsdfVoxel& v) {
@@ -623,7 +623,7 @@ TEST(TsdfIntegrator, RefusesBadInput) {
   TsdfIntegratorOptions off;
   off.new_surface_shadow = 0;
   EXPECT_NO_THROW(TsdfIntegrator{off});
-  // A parameter file cannot ask for a negative shadow either.
+  // A parameter file sets the shadow, but cannot ask for a negative one either.
   EXPECT_EQ(loadParamsFromString<TsdfIntegratorOptions>("new_surface_shadow: 0.5\n", "test")
                 .new_surface_shadow,
             0.5);

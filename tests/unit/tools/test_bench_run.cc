@@ -41,9 +41,12 @@ std::string configCopy(const std::string& name, const std::string& loco_option) 
   std::stringstream text;
   text << shipped.rdbuf();
   std::string yaml = text.str();
-  const size_t planner = yaml.find("\nplanner:\n");
+  const std::string block = "\nplanner:\n";
+  const size_t planner = yaml.find(block);
   EXPECT_NE(planner, std::string::npos) << "config/sim/local_planner.yaml has no planner block";
-  if (planner != std::string::npos) yaml.insert(planner + 10, "  loco:\n    " + loco_option + "\n");
+  if (planner != std::string::npos) {
+    yaml.insert(planner + block.size(), "  loco:\n    " + loco_option + "\n");
+  }
   std::ofstream(dir + "/local_planner.yaml") << yaml;
   return dir;
 }
