@@ -26,18 +26,21 @@ ClearanceCheck checkClearance(const PolynomialTrajectory& trajectory, double fro
   // again on the same map passes again.
   const int first =
       static_cast<int>(std::ceil(std::clamp(from, 0.0, duration) / kClearanceCheckDt));
+  result.threshold = required;
   for (int k = first;; ++k) {
     const double t = std::min(k * kClearanceCheckDt, duration);
     const Eigen::Vector3d p = trajectory.evaluate(t);
     const EsdfSample e = field(p);
     const double d = e.known ? e.distance : 0.0;
+    if (k == first && e.known) result.threshold = std::min(required, d);
     result.min_distance = std::min(result.min_distance, d);
-    if (result.reason.empty() && (!e.known || d < required)) {
+    if (result.reason.empty() && (!e.known || d < result.threshold)) {
       char text[160];
       if (e.known) {
         std::snprintf(text, sizeof(text),
-                      "sample at t=%.2f s, (%.2f, %.2f, %.2f): distance %.3f m < %.3f m", t, p.x(),
-                      p.y(), p.z(), d, required);
+                      "sample at t=%.2f s, (%.2f, %.2f, %.2f): distance %.4f m < %.4f m%s", t,
+                      p.x(), p.y(), p.z(), d, result.threshold,
+                      result.threshold < required ? " (its start's, inside the margin)" : "");
       } else {
         std::snprintf(text, sizeof(text), "sample at t=%.2f s, (%.2f, %.2f, %.2f) is unknown", t,
                       p.x(), p.y(), p.z());

@@ -209,24 +209,28 @@ TEST(PlanStop, TakesTheHardStopWhenOnlyItClearsAnObstacleAhead) {
 
 TEST(PlanStop, WithoutACertifiedStopTakesTheHardestWithinTheLimits) {
   const LocoOptions o;
-  // Moving away from a wall 0.55 m behind: every stop starts inside the clearance margin.
+  // Moving toward a wall 0.55 m ahead: every stop starts inside the clearance margin and comes
+  // closer (moving away from one, it would be held to its own clearance and pass).
   const TrajectoryState start = stateAt(kStart, Eigen::Vector3d(0.8, 0.6, 0));
-  const DistanceField behind =
-      boxesField({boxFromCorners({kStart.x() - 1.55, -50, -50}, {kStart.x() - 0.55, 50, 50})});
-  const Stop stop = planStop(kUtime, start, behind, o);
+  const DistanceField ahead =
+      boxesField({boxFromCorners({kStart.x() + 0.55, -50, -50}, {kStart.x() + 1.55, 50, 50})});
+  const Stop stop = planStop(kUtime, start, ahead, o);
   EXPECT_FALSE(stop.certified);
   expectStopFrom(stop, start, o);
   expectHardestWithinLimits(stop, start, o);
-  EXPECT_FALSE(checkClearance(stop.trajectory, 0, behind, required(o)).clear);
+  EXPECT_FALSE(checkClearance(stop.trajectory, 0, ahead, required(o)).clear);
+  const DistanceField behind =
+      boxesField({boxFromCorners({kStart.x() - 1.55, -50, -50}, {kStart.x() - 0.55, 50, 50})});
+  EXPECT_TRUE(planStop(kUtime, start, behind, o).certified);
   // The same as in free space, where the hardest stop is certified.
   EXPECT_DOUBLE_EQ(stop.trajectory.duration(),
                    planStop(kUtime, start, freeSpace(), o).trajectory.duration());
 
   // Moving toward a wall too near to stop before its margin: the hardest stop as well.
   const TrajectoryState toward = stateAt(kStart, Eigen::Vector3d(1, 0, 0));
-  const DistanceField ahead =
+  const DistanceField near =
       boxesField({boxFromCorners({kStart.x() + 0.7, -50, -50}, {kStart.x() + 1.7, 50, 50})});
-  const Stop late = planStop(kUtime, toward, ahead, o);
+  const Stop late = planStop(kUtime, toward, near, o);
   EXPECT_FALSE(late.certified);
   expectStopFrom(late, toward, o);
   expectHardestWithinLimits(late, toward, o);
@@ -304,11 +308,12 @@ TEST(CheckClearance, FromBeyondTheEndChecksTheEndPointOnly) {
   EXPECT_TRUE(beyond.clear) << beyond.reason;
   EXPECT_NEAR(beyond.min_distance, post(line.evaluate(2.0)).distance, 1e-12);
 
-  // Ending beside the post: from beyond the end the end point fails, and the reason says when.
+  // Ending beside the post: from beyond the end the end point alone is checked, held to its own
+  // clearance (a vehicle at rest inside the margin may stay).
   const PolynomialTrajectory short_line = alongX(0.5);
   const ClearanceCheck end = checkClearance(short_line, 10, post, kRequired);
-  EXPECT_FALSE(end.clear);
-  EXPECT_TRUE(contains(end.reason, "t=0.50 s")) << end.reason;
+  EXPECT_TRUE(end.clear) << end.reason;
+  EXPECT_NEAR(end.threshold, 0.3, 1e-9);
   EXPECT_NEAR(end.min_distance, 0.3, 1e-9);
 }
 
@@ -323,6 +328,39 @@ TEST(CheckClearance, UnknownSamplesFail) {
   const ClearanceCheck end = checkClearance(line, 3, field, 0.6);
   EXPECT_FALSE(end.clear);
   EXPECT_TRUE(contains(end.reason, "unknown")) << end.reason;
+}
+
+TEST(CheckClearance, AStartInsideTheMarginIsHeldToItsOwnClearance) {
+  constexpr double kRequired = 0.6;
+  const PolynomialTrajectory line = alongX(2.0);  // (0, 0, 0) to (2, 0, 0)
+  // A post beside the start, 0.5 m from it: the line leaves it, never coming closer.
+  const DistanceField beside = testing::cylinderField({0, 0.8}, 0.3);
+  const ClearanceCheck away = checkClearance(line, 0, beside, kRequired);
+  EXPECT_TRUE(away.clear) << away.reason;
+  EXPECT_NEAR(away.threshold, 0.5, 1e-12);
+  EXPECT_NEAR(away.min_distance, 0.5, 1e-12);
+  // Checked again from later on, clear of the margin by then: the full clearance again.
+  const ClearanceCheck later = checkClearance(line, 1.5, beside, kRequired);
+  EXPECT_TRUE(later.clear) << later.reason;
+  EXPECT_EQ(later.threshold, kRequired);
+  // A vehicle at rest there may stay.
+  EXPECT_TRUE(checkClearance(PolynomialTrajectory::hover(0, Eigen::Vector3d::Zero(), 1), 0, beside,
+                             kRequired)
+                  .clear);
+
+  // A post ahead, 0.5 m from the start: the line comes closer, refused at its second sample.
+  const DistanceField ahead = testing::cylinderField({1.3, 0}, 0.8);
+  const ClearanceCheck closer = checkClearance(line, 0, ahead, kRequired);
+  EXPECT_FALSE(closer.clear);
+  EXPECT_NEAR(closer.threshold, 0.5, 1e-12);
+  EXPECT_TRUE(contains(closer.reason, "sample at t=0.02 s")) << closer.reason;
+  EXPECT_TRUE(contains(closer.reason, "< 0.5000 m (its start's, inside the margin)"))
+      << closer.reason;
+  // A start in unknown space escapes nothing.
+  const ClearanceCheck unknown =
+      checkClearance(line, 0, unknownBeyondX(freeSpace(), -1), kRequired);
+  EXPECT_FALSE(unknown.clear);
+  EXPECT_EQ(unknown.threshold, kRequired);
 }
 
 }  // namespace

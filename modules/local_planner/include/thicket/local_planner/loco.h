@@ -44,10 +44,17 @@ constexpr double kClearanceCheckDt = 0.02;
 /// The clearance part of the acceptance test on `trajectory`: its samples every kClearanceCheckDt
 /// from its start, and its end, that are not before `from` seconds after its start (after its end
 /// the vehicle rests there, so `from` beyond the end checks the end point alone).
+///
+/// Escape: when the first of those samples is known but already closer than `required` (the map
+/// learned more about an obstacle beside a vehicle standing or flying there), the threshold is
+/// that sample's own distance: a trajectory that never comes closer than where it starts passes,
+/// so a vehicle inside the margin can leave it instead of being refused every cycle, and can never
+/// be planned closer.
 struct ClearanceCheck {
-  bool clear = false;       ///< every sample known with distance >= the required clearance
+  bool clear = false;       ///< every sample known with distance >= the threshold
   double min_distance = 0;  ///< over the samples, 0 where unknown [m]
   std::string reason;       ///< the first sample that fails, in words; empty when clear
+  double threshold = 0;     ///< `required`, or the first sample's distance when less (escape) [m]
 };
 ClearanceCheck checkClearance(const PolynomialTrajectory& trajectory, double from,
                               const DistanceField& field, double required);
