@@ -172,15 +172,25 @@ LocoProblem::Check LocoProblem::check(const Derivatives& free) const {
     result.reason = "not a valid trajectory: " + trajectory.error();
     return result;
   }
-  const ClearanceCheck clearance =
-      checkClearance(*trajectory, 0, field_, options_.robot_radius + options_.clearance_margin);
+  const double required = options_.robot_radius + options_.clearance_margin;
+  const ClearanceCheck clearance = checkClearance(*trajectory, 0, field_, required);
   result.min_distance = clearance.min_distance;
   result.collision_free = clearance.clear;
   constexpr double kLimitDt = 0.01;
   result.max_speed = trajectory->maxSpeed(kLimitDt);
   result.max_acceleration = trajectory->maxAcceleration(kLimitDt);
   char text[160];
-  if (!result.collision_free) {
+  // A plan that starts inside the margin (held to its start's clearance) must end outside it, so
+  // that successive plans cannot creep along an obstacle by the dip between samples.
+  const EsdfSample end = field_(trajectory->evaluate(trajectory->duration()));
+  if (result.collision_free && clearance.threshold < required &&
+      !(end.known && end.distance >= required)) {
+    result.collision_free = false;
+    std::snprintf(text, sizeof(text),
+                  "it starts inside the clearance margin and ends there too (%.4f m < %.4f m)",
+                  end.known ? end.distance : 0.0, required);
+    result.reason = text;
+  } else if (!result.collision_free) {
     result.reason = clearance.reason;
   } else if (result.max_speed > options_.v_max + 1e-6) {
     std::snprintf(text, sizeof(text), "speed %.3f m/s above v_max %.2f m/s", result.max_speed,

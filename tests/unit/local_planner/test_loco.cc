@@ -378,6 +378,24 @@ TEST(Loco, GivesUpInADeadEnd) {
   EXPECT_FALSE(result.segments.empty());  // the best attempt is still reported
 }
 
+TEST(Loco, FromInsideTheMarginOnlyAPlanThatLeavesItIsAccepted) {
+  const Loco loco{LocoOptions{}};
+  const double required = loco.options().robot_radius + loco.options().clearance_margin;
+  // A post 0.55 m beside the start, inside the margin.
+  const DistanceField post = cylinderField({0, 0.85}, 0.3);
+  ASSERT_LT(post(kStart).distance, required);
+  const LocoResult away = loco.solve(lineEnds(), false, post, 3);
+  EXPECT_TRUE(away.accepted) << away.reason;
+  EXPECT_GE(away.min_distance, post(kStart).distance - 1e-9);
+  // An end 0.3 m on, still inside the margin: never closer than the start, yet refused.
+  SplineEnds short_hop = lineEnds();
+  short_hop.end_position = kStart + Eigen::Vector3d(0.3, 0, 0);
+  ASSERT_LT(post(short_hop.end_position).distance, required);
+  const LocoResult stays = loco.solve(short_hop, false, post, 3);
+  EXPECT_FALSE(stays.accepted);
+  EXPECT_NE(stays.reason.find("ends there too"), std::string::npos) << stays.reason;
+}
+
 TEST(Loco, RefusesAGoalInUnknownSpace) {
   const Loco loco{LocoOptions{}};
   const LocoResult result = loco.solve(lineEnds(), false, unknownBeyondX(freeSpace(), 2.0), 5);

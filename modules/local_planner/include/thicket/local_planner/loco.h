@@ -49,7 +49,7 @@ constexpr double kClearanceCheckDt = 0.02;
 /// learned more about an obstacle beside a vehicle standing or flying there), the threshold is
 /// that sample's own distance: a trajectory that never comes closer than where it starts passes,
 /// so a vehicle inside the margin can leave it instead of being refused every cycle, and can never
-/// be planned closer.
+/// be planned closer. (Loco's acceptance adds that such a plan must end outside the margin.)
 struct ClearanceCheck {
   bool clear = false;       ///< every sample known with distance >= the threshold
   double min_distance = 0;  ///< over the samples, 0 where unknown [m]
