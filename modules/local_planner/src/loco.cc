@@ -182,16 +182,19 @@ LocoProblem::Check LocoProblem::check(const Derivatives& free) const {
   char text[160];
   // A plan that starts inside the margin (held to its start's clearance) must end outside it, so
   // that successive plans cannot creep along an obstacle by the dip between samples.
-  const EsdfSample end = field_(trajectory->evaluate(trajectory->duration()));
-  if (result.collision_free && clearance.threshold < required &&
-      !(end.known && end.distance >= required)) {
+  double end_distance = required;
+  if (clearance.clear && clearance.threshold < required) {
+    const EsdfSample end = field_(trajectory->evaluate(trajectory->duration()));
+    end_distance = end.known ? end.distance : 0.0;
+  }
+  if (!result.collision_free) {
+    result.reason = clearance.reason;
+  } else if (end_distance < required) {
     result.collision_free = false;
     std::snprintf(text, sizeof(text),
                   "it starts inside the clearance margin and ends there too (%.4f m < %.4f m)",
-                  end.known ? end.distance : 0.0, required);
+                  end_distance, required);
     result.reason = text;
-  } else if (!result.collision_free) {
-    result.reason = clearance.reason;
   } else if (result.max_speed > options_.v_max + 1e-6) {
     std::snprintf(text, sizeof(text), "speed %.3f m/s above v_max %.2f m/s", result.max_speed,
                   options_.v_max);

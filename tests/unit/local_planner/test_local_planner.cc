@@ -802,11 +802,15 @@ TEST(LocalPlanner, TheRecheckSamplesWhereTheAcceptanceTestDid) {
   const DistanceField strict =
       clearOnlyAtTheSamplesOf(committed, o.robot_radius + o.clearance_margin);
 
-  // 1.013 s into it, between two samples: the rest still passes, so no stop is committed.
+  // 1.013 s into it, between two samples: the rest still passes (nothing else does: from there,
+  // inside the margin, a plan would have to end outside it, so the cycle is stuck and the
+  // committed trajectory stands).
   pilot.t = committed.startUtime() + 1'013'000;
   const CycleReport report = pilot.cycle(strict);
   EXPECT_TRUE(report.blocked.empty()) << report.blocked;
-  EXPECT_NE(report.state, CycleState::kStopping) << report.reason;
+  EXPECT_EQ(report.state, CycleState::kStuck) << report.reason;
+  EXPECT_FALSE(report.trajectory);
+  EXPECT_TRUE(sameSegments(*pilot.planner.committed(), committed));
 }
 
 TEST(LocalPlanner, AnObstacleOnThePartAlreadyFlownBlocksNothing) {
@@ -899,6 +903,8 @@ TEST(LocalPlanner, AWallTooNearForACertifiedStopTakesTheHardestStop) {
     const CycleReport next = pilot.cycle(wall);
     EXPECT_NE(next.state, CycleState::kStopping) << next.reason;
     EXPECT_TRUE(next.blocked.empty()) << next.blocked;
+    EXPECT_GE(wall(pilot.estimate().position).distance, wall(rest).distance - 1e-9)
+        << "cycle " << next.cycle;
     if (next.trajectory) {
       EXPECT_GE(inspectTrajectory(*next.trajectory, wall, 0.01).min_distance,
                 wall(rest).distance - 0.01)
@@ -986,8 +992,6 @@ TEST(LocalPlanner, AnObstacleWithAWayAroundIsReplannedInTheSameCycle) {
   EXPECT_EQ(last.state, CycleState::kGoalReached) << last.reason;
 }
 
-// ---- determinism ----
-
 TEST(LocalPlanner, AVehicleInsideTheMarginLeavesItWithoutComingCloser) {
   // At rest 0.55 m from a post, inside the clearance acceptance needs (0.62 m): every trajectory
   // used to fail its first sample, so the vehicle could never leave.
@@ -1017,6 +1021,8 @@ TEST(LocalPlanner, AVehicleInsideTheMarginLeavesItWithoutComingCloser) {
   }
   EXPECT_TRUE(reached);
 }
+
+// ---- determinism ----
 
 TEST(LocalPlanner, SameInputsGiveIdenticalTrajectories) {
   // A cylinder just off the straight line, so the optimizer has work to do.
