@@ -64,8 +64,10 @@ void ExplorerNode::onStatus(const planner_status_t& msg) {
       answer.status = goal_t::STATUS_OK;
       for (const Eigen::Vector3d& w : proposal.waypoints)
         answer.waypoints.push_back({w.x(), w.y(), w.z()});
-      answer.yaws = proposal.yaws;
-      if (!answer.yaws.empty()) answer.yaw_policy = goal_t::YAW_FIXED;
+      if (options_.explorer.fixed_yaw && !proposal.yaws.empty()) {
+        answer.yaws = proposal.yaws;
+        answer.yaw_policy = goal_t::YAW_FIXED;
+      }
       ++goals_found_;
     } else {
       answer.status = proposal.map_missing ? goal_t::STATUS_NO_MAP : goal_t::STATUS_NO_CANDIDATE;

@@ -27,6 +27,9 @@ void ExplorerOptions::declare(Params& p) {
   p("reachable", reachable,
     "local_exploration: candidates need a straight line from the start that keeps the trees' "
     "clearance");
+  p("fixed_yaw", fixed_yaw,
+    "send the proposals' yaws: the vehicle faces them on the way and turns at each waypoint; "
+    "false: it faces along its velocity (the paper)");
   p("max_draws", max_draws, "random draws per request", Range::between(1, 10000000));
   p("flight_volume_min", flight_volume_min, "candidates lie in this box: its low corner [m]");
   p("flight_volume_max", flight_volume_max, "... and its high corner [m]");

@@ -10,6 +10,7 @@
 #include <thicket/polynomial_trajectory_t.hpp>
 #include <thicket/setpoint_t.hpp>
 
+#include "thicket/common/geometry.h"
 #include "thicket/common/statistics.h"
 
 namespace thicket::local_planner {
@@ -65,6 +66,7 @@ Expected<Goal> goalFromMessage(const goal_t& msg) {
   goal.strategy = msg.strategy;
   goal.tolerance = msg.tolerance;
   for (const auto& w : msg.waypoints) goal.waypoints.emplace_back(w[0], w[1], w[2]);
+  if (msg.yaw_policy == goal_t::YAW_FIXED) goal.yaws = msg.yaws;
   return goal;
 }
 
@@ -103,18 +105,24 @@ void LocalPlannerNode::onMap(const map_update_t& msg) {
 }
 
 void LocalPlannerNode::onState(const odometry_t& msg) {
-  VehicleState state;
-  state.utime = msg.utime;
-  state.position = Eigen::Vector3d(msg.position[0], msg.position[1], msg.position[2]);
-  state.velocity =
-      Eigen::Vector3d(msg.linear_velocity[0], msg.linear_velocity[1], msg.linear_velocity[2]);
   if (msg.quality == odometry_t::QUALITY_LOST) {
     reportBadMessage(options_.state_channel,
                      "the estimator reports it is lost (" + msg.reason + ")");
     return;
   }
-  if (!state.position.allFinite() || !state.velocity.allFinite()) {
-    reportBadMessage(options_.state_channel, "position or velocity not finite");
+  const Expected<Pose> pose = poseFromArrays(msg.position, msg.orientation);
+  if (!pose) {
+    reportBadMessage(options_.state_channel, "bad pose: " + pose.error());
+    return;
+  }
+  VehicleState state;
+  state.utime = msg.utime;
+  state.position = pose->position;
+  state.velocity =
+      Eigen::Vector3d(msg.linear_velocity[0], msg.linear_velocity[1], msg.linear_velocity[2]);
+  state.yaw = pose->yaw();
+  if (!state.velocity.allFinite()) {
+    reportBadMessage(options_.state_channel, "velocity not finite");
     return;
   }
   if (state_ && msg.utime <= state_->utime) {
@@ -158,7 +166,11 @@ void LocalPlannerNode::runCycle(int64_t utime) {
 
 void LocalPlannerNode::publishReport(const CycleReport& report, double total_ms) {
   if (report.trajectory) {
-    publish("PLANNER_TRAJECTORY", report.trajectory->toLcm(report.cycle, report.goal_id));
+    publish("PLANNER_TRAJECTORY",
+            report.trajectory->toLcm(report.cycle, report.goal_id,
+                                     report.yaw ? polynomial_trajectory_t::YAW_CONSTANT
+                                                : polynomial_trajectory_t::YAW_ALONG_VELOCITY,
+                                     report.yaw.value_or(0)));
   }
   if (report.loco.iterations > 0) solve_ms_.push_back(report.solve_ms);
   if (report.is_final) ++state_counts_[static_cast<size_t>(report.state)];
@@ -258,10 +270,12 @@ bool LocalPlannerNode::publishSetpoint(int64_t utime) {
   copy(s.position, msg.position);
   copy(s.velocity, msg.velocity);
   copy(s.acceleration, msg.acceleration);
-  // Yaw along the horizontal velocity; held while (nearly) hovering.
+  // The trajectory's constant yaw, or along the horizontal velocity, held while (nearly) hovering.
   const double speed_xy_sq = s.velocity.head<2>().squaredNorm();
   constexpr double kMinSpeed = 0.05;
-  if (speed_xy_sq > kMinSpeed * kMinSpeed) {
+  if (planner_.committedYaw()) {
+    last_yaw_ = *planner_.committedYaw();
+  } else if (speed_xy_sq > kMinSpeed * kMinSpeed) {
     last_yaw_ = std::atan2(s.velocity.y(), s.velocity.x());
     msg.yaw_rate =
         (s.velocity.x() * s.acceleration.y() - s.velocity.y() * s.acceleration.x()) / speed_xy_sq;

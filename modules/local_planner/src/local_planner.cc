@@ -51,6 +51,27 @@ void LocalPlannerOptions::declare(Params& p) {
     "an explorer is running: stuck cycles wait for its intermediate goal");
   p("seed", seed, "random restarts draw from seed and the cycle");
   p("hover_duration", hover_duration, "duration of a hover trajectory [s]", Range::positive());
+  p("yaw_tolerance", yaw_tolerance,
+    "a waypoint with a yaw is reached once the vehicle's yaw is this close to it [rad]",
+    Range::between(0, M_PI));
+  p("stall_cycles", stall_cycles,
+    "stall watchdog: give a goal up when the reference moved less than stall_distance over this "
+    "many consecutive cycles on one waypoint; 0: off",
+    Range::between(0, 1000));
+  p("stall_distance", stall_distance, "... that distance [m]", Range::positive());
+}
+
+bool Watchdog::stalled(int64_t goal_id, size_t waypoint, int64_t cycle,
+                       const Eigen::Vector3d& reference, int cycles, double distance) {
+  if (goal_id != goal_id_ || waypoint != waypoint_ || cycle != last_cycle_ + 1) {
+    references_.clear();
+    goal_id_ = goal_id;
+    waypoint_ = waypoint;
+  }
+  last_cycle_ = cycle;
+  references_.push_back(reference);
+  while (references_.size() > static_cast<size_t>(cycles) + 1) references_.pop_front();
+  return cycles > 0 && references_.size() == static_cast<size_t>(cycles) + 1 && moved() < distance;
 }
 
 namespace {
@@ -74,6 +95,8 @@ LocalPlanner::LocalPlanner(LocalPlannerOptions options, std::function<double()> 
       !(std::isfinite(options_.min_progress) && options_.min_progress >= 0) ||
       !positive(options_.max_divergence) || !positive(options_.max_state_age) ||
       !positive(options_.max_map_age) || !positive(options_.hover_duration) ||
+      !(options_.yaw_tolerance >= 0 && options_.yaw_tolerance <= M_PI) ||
+      options_.stall_cycles < 0 || !positive(options_.stall_distance) ||
       !options_.flight_volume_min.allFinite() || !options_.flight_volume_max.allFinite() ||
       !(options_.flight_volume_min.array() < options_.flight_volume_max.array()).all()) {
     throw std::invalid_argument(
@@ -83,12 +106,19 @@ LocalPlanner::LocalPlanner(LocalPlannerOptions options, std::function<double()> 
 
 std::optional<std::string> LocalPlanner::validate(const Goal& goal) const {
   if (goal.waypoints.empty()) return "the goal has no waypoints";
+  if (!goal.yaws.empty() && goal.yaws.size() != goal.waypoints.size()) {
+    return "the goal has " + std::to_string(goal.yaws.size()) + " yaws for " +
+           std::to_string(goal.waypoints.size()) + " waypoints";
+  }
   if (!(std::isfinite(goal.tolerance) && goal.tolerance >= 0)) {
     return "the goal tolerance must be finite and >= 0";
   }
   for (size_t i = 0; i < goal.waypoints.size(); ++i) {
     const Eigen::Vector3d& w = goal.waypoints[i];
     if (!w.allFinite()) return "waypoint " + std::to_string(i) + " is not finite";
+    if (!goal.yaws.empty() && !std::isfinite(goal.yaws[i])) {
+      return "the yaw of waypoint " + std::to_string(i) + " is not finite";
+    }
     if ((w.array() < options_.flight_volume_min.array()).any() ||
         (w.array() > options_.flight_volume_max.array()).any()) {
       return "waypoint " + std::to_string(i) +
@@ -116,20 +146,75 @@ std::optional<int64_t> LocalPlanner::waitingCycle() const {
   return waiting_->cycle;
 }
 
+namespace {
+
+double tolerance(const Goal& goal, const LocalPlannerOptions& options) {
+  return goal.tolerance > 0 ? goal.tolerance : options.goal_tolerance;
+}
+
+std::optional<double> waypointYaw(const Goal& goal, size_t waypoint) {
+  if (goal.yaws.empty()) return std::nullopt;
+  return goal.yaws[waypoint];
+}
+
+}  // namespace
+
 bool LocalPlanner::advanceWaypoints(const Goal& goal, size_t& waypoint,
-                                    const Eigen::Vector3d& position) const {
-  const double tolerance = goal.tolerance > 0 ? goal.tolerance : options_.goal_tolerance;
-  while (waypoint < goal.waypoints.size() &&
-         (goal.waypoints[waypoint] - position).norm() <= tolerance) {
-    ++waypoint;
-  }
+                                    const CycleReport& report) const {
+  const auto reached = [&](size_t i) {
+    if ((goal.waypoints[i] - report.start.position).norm() > tolerance(goal, options_)) {
+      return false;
+    }
+    const std::optional<double> yaw = waypointYaw(goal, i);
+    return !yaw ||
+           std::abs(std::remainder(report.vehicle_yaw - *yaw, 2 * M_PI)) <= options_.yaw_tolerance;
+  };
+  while (waypoint < goal.waypoints.size() && reached(waypoint)) ++waypoint;
   return waypoint == goal.waypoints.size();
 }
 
-void LocalPlanner::commit(const PolynomialTrajectory& trajectory, CycleReport& report) {
+void LocalPlanner::commit(const PolynomialTrajectory& trajectory, const std::optional<double>& yaw,
+                          CycleReport& report) {
   committed_ = trajectory;
+  committed_yaw_ = yaw;
   committed_cycle_ = report.cycle;
   report.trajectory = trajectory;
+  report.yaw = yaw;
+}
+
+bool LocalPlanner::look(const Goal& goal, size_t waypoint, const DistanceField& field,
+                        CycleReport& report) {
+  const std::optional<double> yaw = waypointYaw(goal, waypoint);
+  if (!yaw ||
+      (goal.waypoints[waypoint] - report.start.position).norm() > tolerance(goal, options_)) {
+    return false;
+  }
+  report.goal_id = goal.id;
+  report.goal_from_explorer = goal.from_explorer;
+  report.goal = goal.waypoints[waypoint];
+  report.horizon_goal = report.goal;
+  // Stop where it is (stay, if it is at rest) and turn.
+  commit(planStop(report.utime, report.start, field, options_.loco).trajectory, yaw, report);
+  report.state = CycleState::kPlanned;
+  report.reason = format("looking: turning from yaw %.2f to %.2f rad at the waypoint",
+                         report.vehicle_yaw, *yaw);
+  return true;
+}
+
+LocalPlanner::Tracked LocalPlanner::track(const Goal& goal, size_t& waypoint, Watchdog& watchdog,
+                                          const DistanceField& field, CycleReport& report) {
+  if (advanceWaypoints(goal, waypoint, report)) return Tracked::kReached;
+  if (watchdog.stalled(goal.id, waypoint, report.cycle, report.start.position,
+                       options_.stall_cycles, options_.stall_distance)) {
+    report.goal_id = goal.id;
+    report.goal_from_explorer = goal.from_explorer;
+    report.goal = goal.waypoints[waypoint];
+    report.reason = format("stalled: the reference moved %.2f m in the last %.0f cycles",
+                           watchdog.moved(), options_.stall_cycles);
+    return Tracked::kFailed;
+  }
+  if (look(goal, waypoint, field, report)) return Tracked::kCommitted;
+  return planToward(goal, waypoint, field, report) ? Tracked::kCommitted : Tracked::kFailed;
 }
 
 void LocalPlanner::hold(CycleReport& report, CycleState state, const std::string& reason,
@@ -137,7 +222,8 @@ void LocalPlanner::hold(CycleReport& report, CycleState state, const std::string
   report.state = state;
   report.reason = reason;
   if (!committed_ && position) {
-    commit(PolynomialTrajectory::hover(report.utime, *position, options_.hover_duration), report);
+    commit(PolynomialTrajectory::hover(report.utime, *position, options_.hover_duration),
+           std::nullopt, report);
   }
 }
 
@@ -171,7 +257,7 @@ void LocalPlanner::recheck(const DistanceField& field, CycleReport& report) {
   const ClearanceCheck check = checkClearance(*committed_, from, field, requiredClearance());
   if (check.clear) return;
   const Stop stop = planStop(report.utime, report.start, field, options_.loco);
-  commit(stop.trajectory, report);
+  commit(stop.trajectory, committed_yaw_, report);
   report.blocked =
       std::string(kBlockedTrajectoryReason) + " (" + check.reason + "); " +
       (stop.certified ? format("stopping within %.2f m in certified free space", stop.distance)
@@ -262,7 +348,7 @@ bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceF
     report.reason = "the optimizer returned an invalid trajectory: " + trajectory.error();
     return false;
   }
-  commit(*trajectory, report);
+  commit(*trajectory, waypointYaw(goal, waypoint), report);
   report.state = CycleState::kPlanned;
   report.reason.clear();
   return true;
@@ -294,6 +380,7 @@ CycleReport LocalPlanner::planCycle(int64_t utime, const DistanceField* map_fiel
          estimate->position);
     return report;
   }
+  report.vehicle_yaw = estimate->yaw;
   // The reference: the committed trajectory now, unless the vehicle is elsewhere.
   if (committed_) report.start = committed_->stateAtUtime(utime);
   if (!committed_ ||
@@ -319,25 +406,31 @@ CycleReport LocalPlanner::planCycle(int64_t utime, const DistanceField* map_fiel
 
   std::string dropped;
   if (intermediate_) {
-    if (advanceWaypoints(*intermediate_, intermediate_waypoint_, report.start.position)) {
-      intermediate_.reset();
-    } else if (planToward(*intermediate_, intermediate_waypoint_, field, report)) {
-      return report;
-    } else {
-      dropped = "intermediate goal " + std::to_string(intermediate_->id) + " dropped (" +
-                report.reason + "); ";
-      intermediate_.reset();
+    switch (track(*intermediate_, intermediate_waypoint_, intermediate_watchdog_, field, report)) {
+      case Tracked::kCommitted:
+        return report;
+      case Tracked::kReached:
+        break;
+      case Tracked::kFailed:
+        dropped = "intermediate goal " + std::to_string(intermediate_->id) + " dropped (" +
+                  report.reason + "); ";
+        break;
     }
+    intermediate_.reset();
   }
-  if (advanceWaypoints(*mission_, mission_waypoint_, report.start.position)) {
-    report.goal_id = mission_->id;
-    report.goal = mission_->waypoints.back();
-    report.horizon_goal = report.goal;
-    report.state = CycleState::kGoalReached;
-    report.reason = "goal reached";
-    return report;
+  switch (track(*mission_, mission_waypoint_, mission_watchdog_, field, report)) {
+    case Tracked::kCommitted:
+      return report;
+    case Tracked::kReached:
+      report.goal_id = mission_->id;
+      report.goal = mission_->waypoints.back();
+      report.horizon_goal = report.goal;
+      report.state = CycleState::kGoalReached;
+      report.reason = "goal reached";
+      return report;
+    case Tracked::kFailed:
+      break;
   }
-  if (planToward(*mission_, mission_waypoint_, field, report)) return report;
   hold(report, CycleState::kStuck, dropped + report.reason, report.start.position);
   if (options_.use_explorer) {
     report.is_final = false;
@@ -373,11 +466,16 @@ CycleReport LocalPlanner::answerCycle(const std::optional<Goal>& goal, const std
   intermediate_ = *goal;
   intermediate_->from_explorer = true;
   intermediate_waypoint_ = 0;
-  if (advanceWaypoints(*intermediate_, intermediate_waypoint_, report.start.position)) {
-    intermediate_.reset();
-    return give_up("the intermediate goal is where the vehicle already is");
+  switch (track(*intermediate_, intermediate_waypoint_, intermediate_watchdog_, fenced(*map_field),
+                report)) {
+    case Tracked::kCommitted:
+      return report;
+    case Tracked::kReached:
+      intermediate_.reset();
+      return give_up("the intermediate goal is where the vehicle already is");
+    case Tracked::kFailed:
+      break;
   }
-  if (planToward(*intermediate_, intermediate_waypoint_, fenced(*map_field), report)) return report;
   intermediate_.reset();
   return give_up("the intermediate goal is infeasible too: " + report.reason);
 }

@@ -86,11 +86,13 @@ ExplorerNodeOptions nodeOptions(const std::string& strategy = "local_exploration
   ExplorerNodeOptions options;
   options.explorer = optionsFor(strategy);
   options.explorer.p_goal = 0;  // always explore, so every answer depends on the map
+  options.explorer.fixed_yaw = true;
   return options;
 }
 
-class ExplorerNodeTest : public ::testing::Test {
- protected:
+// An explorer node on its own in-process LCM, with the planner and the mapper played by hand.
+struct ExplorerGraph {
+  explicit ExplorerGraph(const ExplorerNodeOptions& options) : explorer{lcm, options} {}
   void publishMap(const HandMap& map, int64_t revision = 1) {
     for (const map_update_t& part : snapshot(map.tsdf, revision)) world.publish("MAP_TSDF", part);
     for (const map_update_t& part : snapshot(map.esdf, revision)) world.publish("MAP_ESDF", part);
@@ -108,9 +110,14 @@ class ExplorerNodeTest : public ::testing::Test {
 
   lcm::LCM lcm{"memq://"};
   Loop loop{lcm};
-  ExplorerNode explorer{lcm, nodeOptions()};
+  ExplorerNode explorer;
   Recorder recorder{lcm};
   Node world{"world", lcm};  // planner and mapper stand-ins
+};
+
+class ExplorerNodeTest : public ::testing::Test, public ExplorerGraph {
+ protected:
+  ExplorerNodeTest() : ExplorerGraph(nodeOptions()) {}
 };
 
 TEST_F(ExplorerNodeTest, WithoutAMapItSaysSoForTheSameCycleAndTimesItself) {
@@ -169,6 +176,24 @@ TEST_F(ExplorerNodeTest, ProposesAnObservedFreePointFacingUnknownSpace) {
   EXPECT_EQ(p.waypoints[0], x);
   EXPECT_EQ(p.yaws[0], answer.yaws[0]);
   EXPECT_EQ(recorder.order, (std::vector<std::string>{"EXPLORER_GOAL", "MODULE_TIMING"}));
+}
+
+TEST(ExplorerNode, WithoutFixedYawTheVehicleFacesAlongItsVelocity) {
+  ExplorerNodeOptions options = nodeOptions();
+  options.explorer.fixed_yaw = false;
+  ExplorerGraph paper(options);
+  paper.publishMap(observedBox({-4, -4, 0.4}, {4, 4, 2.6}));
+  const goal_t answer = paper.ask(stuckStatus(9));
+  ASSERT_EQ(answer.status, +goal_t::STATUS_OK) << answer.reason;
+  EXPECT_EQ(answer.yaw_policy, +goal_t::YAW_ALONG_VELOCITY);
+  ASSERT_EQ(answer.num_waypoints, 1);
+  EXPECT_EQ(answer.yaws, std::vector<double>{0.0});
+  // The same waypoint as with yaws: only the yaw policy differs.
+  ExplorerGraph looking(nodeOptions());
+  looking.publishMap(observedBox({-4, -4, 0.4}, {4, 4, 2.6}));
+  const goal_t with_yaw = looking.ask(stuckStatus(9));
+  EXPECT_EQ(with_yaw.waypoints, answer.waypoints);
+  EXPECT_EQ(with_yaw.yaw_policy, +goal_t::YAW_FIXED);
 }
 
 TEST_F(ExplorerNodeTest, TheSameCycleGetsTheSameAnswerAndOthersDiffer) {

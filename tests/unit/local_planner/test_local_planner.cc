@@ -6,6 +6,7 @@
 // against the exact field: distance >= robot radius, v_max and a_max kept.
 #include "thicket/local_planner/local_planner.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -110,16 +111,29 @@ class Pilot {
       : planner(std::move(options)), start_(start) {}
 
   VehicleState estimate() const {
-    if (!planner.committed()) return stateAt(t, start_);
-    const TrajectoryState s = planner.committed()->stateAtUtime(t);
-    return stateAt(t, s.position, s.velocity);
+    VehicleState state = stateAt(t, start_);
+    if (planner.committed()) {
+      const TrajectoryState s = planner.committed()->stateAtUtime(t);
+      state = stateAt(t, s.position, s.velocity);
+    }
+    state.yaw = yaw;
+    return state;
   }
 
-  // One cycle at t on `field`; checks what it commits; advances t by 1 s.
+  // One cycle at t on `field`; checks what it commits; advances t by 1 s, turning the vehicle
+  // toward the committed yaw (or its velocity) at no more than yaw_rate, like the simulator.
   CycleReport cycle(const DistanceField& field) {
     const CycleReport report = planner.plan(t, &field, t, ++revision, estimate());
     check(report, field);
     t += kSecond;
+    double target = yaw;
+    if (planner.committedYaw()) {
+      target = *planner.committedYaw();
+    } else if (planner.committed()) {
+      const Eigen::Vector3d v = planner.committed()->stateAtUtime(t).velocity;
+      if (v.head<2>().norm() > 0.05) target = std::atan2(v.y(), v.x());
+    }
+    yaw += std::clamp(std::remainder(target - yaw, 2 * M_PI), -yaw_rate, yaw_rate);
     return report;
   }
 
@@ -127,8 +141,10 @@ class Pilot {
   void check(const CycleReport& report, const DistanceField& field) const {
     if (report.state == CycleState::kPlanned) {
       EXPECT_TRUE(report.trajectory) << "cycle " << report.cycle;
-      // A planned cycle explains itself only when it replaced a blocked trajectory.
-      EXPECT_EQ(report.reason.empty(), report.blocked.empty()) << report.reason;
+      // A planned cycle explains itself only when it replaced a blocked trajectory or looks.
+      EXPECT_EQ(report.reason.empty(),
+                report.blocked.empty() && !report.reason.starts_with("looking"))
+          << report.reason;
     }
     if (!report.trajectory) return;
     SCOPED_TRACE("cycle " + std::to_string(report.cycle));
@@ -141,6 +157,8 @@ class Pilot {
   LocalPlanner planner;
   int64_t t = kT0;
   int64_t revision = 0;
+  double yaw = 0;       ///< the vehicle's heading [rad]
+  double yaw_rate = 1;  ///< its largest turn per cycle [rad]
 
  private:
   Eigen::Vector3d start_;
@@ -169,6 +187,12 @@ TEST(LocalPlanner, RefusesMalformedGoalsWithAReason) {
   Goal negative = goalAt(5, {kMission});
   negative.tolerance = -0.1;
   EXPECT_TRUE(contains(refusal(negative), "tolerance")) << refusal(negative);
+  Goal few_yaws = goalAt(7, {kMission, Eigen::Vector3d(3, 4, 2)});
+  few_yaws.yaws = {0.5};
+  EXPECT_TRUE(contains(refusal(few_yaws), "1 yaws for 2 waypoints")) << refusal(few_yaws);
+  Goal nan_yaw = goalAt(8, {kMission});
+  nan_yaw.yaws = {std::nan("")};
+  EXPECT_TRUE(contains(refusal(nan_yaw), "yaw of waypoint 0")) << refusal(nan_yaw);
   Goal nan_tolerance = goalAt(6, {kMission});
   nan_tolerance.tolerance = std::nan("");
   EXPECT_TRUE(contains(refusal(nan_tolerance), "tolerance")) << refusal(nan_tolerance);
@@ -439,6 +463,55 @@ TEST(LocalPlanner, TracksWaypointsInOrder) {
   EXPECT_TRUE(reached);
   EXPECT_GT(toward_w0, 0);
   EXPECT_GT(toward_w1, 0);
+}
+
+TEST(LocalPlanner, AWaypointWithAYawIsFlownFacingItAndReachedOnlyFacingIt) {
+  Pilot pilot;
+  pilot.yaw_rate = 0.1;  // it turns slower than it flies: it arrives before it faces the yaw
+  const Eigen::Vector3d w(3, 0, 1.5);
+  Goal goal = goalAt(4, {w});
+  goal.yaws = {M_PI / 2};
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goal));
+  const DistanceField field = freeSpace();
+  const double tolerance = pilot.planner.options().goal_tolerance;
+  const double yaw_tolerance = pilot.planner.options().yaw_tolerance;
+
+  int looks = 0;
+  bool reached = false;
+  for (int k = 0; k < 40 && !reached; ++k) {
+    const VehicleState before = pilot.estimate();
+    const CycleReport report = pilot.cycle(field);
+    SCOPED_TRACE("cycle " + std::to_string(report.cycle));
+    if (report.state == CycleState::kGoalReached) {
+      reached = true;
+      EXPECT_LE((before.position - w).norm(), tolerance);
+      EXPECT_LE(std::abs(std::remainder(before.yaw - M_PI / 2, 2 * M_PI)), yaw_tolerance);
+      break;
+    }
+    ASSERT_EQ(report.state, CycleState::kPlanned) << report.reason;
+    // Every trajectory toward the waypoint is flown facing its yaw.
+    ASSERT_TRUE(report.yaw);
+    EXPECT_EQ(*report.yaw, M_PI / 2);
+    EXPECT_EQ(pilot.planner.committedYaw(), report.yaw);
+    if (report.reason.starts_with("looking")) {
+      // At the waypoint but not yet facing the yaw: it stays there and turns.
+      ++looks;
+      EXPECT_LE((report.start.position - w).norm(), tolerance);
+      ASSERT_TRUE(report.trajectory);
+      const Eigen::Vector3d rest = report.trajectory->evaluate(report.trajectory->duration());
+      EXPECT_LE((rest - w).norm(), tolerance);
+      EXPECT_GT(std::abs(std::remainder(before.yaw - M_PI / 2, 2 * M_PI)), yaw_tolerance);
+    }
+  }
+  EXPECT_TRUE(reached);
+  EXPECT_GE(looks, 5);  // about 14 cycles of turning, fewer than 5 of them flying there
+
+  // A goal without yaws is flown along the velocity.
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(5, {Eigen::Vector3d(3, 3, 1.5)})));
+  const CycleReport plain = pilot.cycle(field);
+  ASSERT_EQ(plain.state, CycleState::kPlanned) << plain.reason;
+  EXPECT_FALSE(plain.yaw);
+  EXPECT_FALSE(pilot.planner.committedYaw());
 }
 
 // ---- stuck, the explorer, intermediate goals ----
@@ -724,6 +797,129 @@ TEST(LocalPlanner, AnInfeasibleIntermediateGoalIsDropped) {
   EXPECT_EQ(dropped.goal, kMission);
   EXPECT_FALSE(dropped.goal_from_explorer);
   EXPECT_FALSE(pilot.planner.intermediateGoal());
+}
+
+// Flies toward kMission into wall() until a cycle is stuck planning from rest.
+CycleReport stuckAtRest(Pilot& pilot, const DistanceField& field) {
+  std::optional<CycleReport> stuck = flyUntilStuck(pilot, field);
+  const auto moving = [](const TrajectoryState& s) {
+    return s.velocity.norm() > 0 || s.acceleration.norm() > 0;
+  };
+  for (int k = 0; k < 10 && stuck && moving(stuck->start); ++k) stuck = pilot.cycle(field);
+  EXPECT_TRUE(stuck && stuck->state == CycleState::kStuck);
+  EXPECT_TRUE(stuck && !moving(stuck->start));
+  return stuck.value_or(CycleReport{});
+}
+
+TEST(LocalPlanner, AnIntermediateGoalAtTheVehicleIsALookInPlace) {
+  Pilot pilot(withExplorer());
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField field = wall();
+  const CycleReport stuck = stuckAtRest(pilot, field);
+  ASSERT_TRUE(pilot.planner.waitingCycle());
+  const Eigen::Vector3d here = stuck.start.position;
+
+  Goal look = goalAt(78, {here}, /*from_explorer=*/true);
+  look.yaws = {M_PI};  // behind it: the vehicle faces the wall (+x)
+  const CycleReport answered = pilot.planner.answer(look, "look back", &field);
+  pilot.check(answered, field);
+  ASSERT_EQ(answered.state, CycleState::kPlanned) << answered.reason;
+  EXPECT_TRUE(answered.reason.starts_with("looking")) << answered.reason;
+  ASSERT_TRUE(answered.yaw);
+  EXPECT_EQ(*answered.yaw, M_PI);
+  ASSERT_TRUE(answered.trajectory);
+  for (double s = 0; s <= answered.trajectory->duration() + 1; s += 0.1) {
+    EXPECT_NEAR((answered.trajectory->evaluate(s) - here).norm(), 0, 1e-9) << "t = " << s;
+  }
+
+  // It turns in place (1 rad per cycle) until it faces back, then returns to the mission.
+  int looks = 0;
+  std::optional<CycleReport> back;
+  for (int k = 0; k < 10 && !back; ++k) {
+    const CycleReport report = pilot.cycle(field);
+    if (report.goal_id != 78) {
+      back = report;
+      break;
+    }
+    ASSERT_EQ(report.state, CycleState::kPlanned) << report.reason;
+    EXPECT_NEAR((report.start.position - here).norm(), 0, 1e-9);
+    ++looks;
+  }
+  ASSERT_TRUE(back);
+  EXPECT_EQ(looks, 3);  // at yaw 0, 1 and 2; 3 is within 0.2 rad of pi
+  EXPECT_EQ(back->goal_id, 1);
+  EXPECT_EQ(back->state, CycleState::kStuck) << back->reason;
+  EXPECT_FALSE(pilot.planner.intermediateGoal());
+}
+
+TEST(LocalPlanner, TheStallWatchdogGivesUpGoalsTheVehicleDoesNotMoveToward) {
+  LocalPlannerOptions options = withExplorer();
+  options.stall_cycles = 3;
+  options.stall_distance = 0.3;
+  Pilot pilot(options);
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField field = wall();
+  const CycleReport stuck = stuckAtRest(pilot, field);
+
+  // A look the vehicle cannot complete (it does not turn): planned every cycle, going nowhere.
+  pilot.yaw_rate = 0;
+  Goal look = goalAt(79, {stuck.start.position}, /*from_explorer=*/true);
+  look.yaws = {M_PI};
+  ASSERT_EQ(pilot.planner.answer(look, "look back", &field).state, CycleState::kPlanned);
+  for (int k = 0; k < 2; ++k) {
+    const CycleReport report = pilot.cycle(field);
+    ASSERT_EQ(report.goal_id, 79);
+    ASSERT_EQ(report.state, CycleState::kPlanned) << report.reason;
+  }
+  // The third cycle after the answer gives it up; the mission goal is stuck as before.
+  const CycleReport dropped = pilot.cycle(field);
+  EXPECT_EQ(dropped.state, CycleState::kStuck);
+  EXPECT_TRUE(contains(dropped.reason, "intermediate goal 79 dropped (stalled")) << dropped.reason;
+  EXPECT_FALSE(pilot.planner.intermediateGoal());
+  ASSERT_TRUE(pilot.planner.waitingCycle());
+
+  // Unanswered, the mission goal itself is reported stalled after 3 more cycles on it.
+  for (int k = 0; k < 2; ++k) {
+    const CycleReport report = pilot.cycle(field);
+    EXPECT_EQ(report.state, CycleState::kStuck);
+    EXPECT_FALSE(contains(report.reason, "stalled")) << report.reason;
+  }
+  const CycleReport stalled = pilot.cycle(field);
+  EXPECT_EQ(stalled.state, CycleState::kStuck);
+  EXPECT_TRUE(stalled.reason.starts_with("stalled: the reference moved 0.00 m in the last 3"))
+      << stalled.reason;
+}
+
+TEST(Watchdog, CountsConsecutiveCyclesOnOneWaypointOfOneGoal) {
+  const Eigen::Vector3d p(1, 2, 3), step(0.1, 0, 0);
+  Watchdog still;
+  EXPECT_FALSE(still.stalled(1, 0, 10, p, 3, 0.3));
+  EXPECT_FALSE(still.stalled(1, 0, 11, p, 3, 0.3));
+  EXPECT_FALSE(still.stalled(1, 0, 12, p, 3, 0.3));
+  EXPECT_TRUE(still.stalled(1, 0, 13, p + 0.5 * step, 3, 0.3));
+  EXPECT_NEAR(still.moved(), 0.05, 1e-12);
+  EXPECT_TRUE(still.stalled(1, 0, 14, p, 3, 0.3));  // the window slides
+  // A new waypoint, a new goal or a skipped cycle starts over.
+  EXPECT_FALSE(still.stalled(1, 1, 15, p, 3, 0.3));
+  EXPECT_FALSE(still.stalled(2, 1, 16, p, 3, 0.3));
+  EXPECT_FALSE(still.stalled(2, 1, 18, p, 3, 0.3));
+  EXPECT_FALSE(still.stalled(2, 1, 19, p, 3, 0.3));
+  EXPECT_FALSE(still.stalled(2, 1, 20, p, 3, 0.3));
+  EXPECT_TRUE(still.stalled(2, 1, 21, p, 3, 0.3));
+
+  // Moving more than stall_distance over the window is progress, however slowly.
+  Watchdog moving;
+  for (int k = 0; k < 10; ++k) {
+    EXPECT_FALSE(moving.stalled(1, 0, k, p + k * 1.01 * step, 3, 0.3)) << k;
+  }
+  // Back and forth within stall_distance is not.
+  Watchdog dithering;
+  bool stalled = false;
+  for (int k = 0; k < 10; ++k) stalled = dithering.stalled(1, 0, k, p + (k % 2) * step, 3, 0.3);
+  EXPECT_TRUE(stalled);
+  // 0 cycles: off.
+  Watchdog off;
+  for (int k = 0; k < 10; ++k) EXPECT_FALSE(off.stalled(1, 0, k, p, 0, 0.3));
 }
 
 TEST(LocalPlanner, ACancelWhileWaitingClosesTheCycleWithoutFlyingToTheAnswer) {

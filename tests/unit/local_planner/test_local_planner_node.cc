@@ -233,6 +233,10 @@ TEST_F(LocalPlannerNodeTest, RefusesBadMissionGoalsWithAReason) {
   goal_t bad_yaw = goalMsg(3, {Eigen::Vector3d(5, 0, 1.5)});
   bad_yaw.yaw_policy = 7;
   expectRejected(bad_yaw, "unknown yaw policy", "yaw policy");
+  goal_t nan_yaw = goalMsg(6, {Eigen::Vector3d(5, 0, 1.5)});
+  nan_yaw.yaw_policy = goal_t::YAW_FIXED;
+  nan_yaw.yaws[0] = INFINITY;
+  expectRejected(nan_yaw, "infinite yaw", "yaw of waypoint 0 is not finite");
   expectRejected(goalMsg(4, {}), "no waypoints", "no waypoints");
   goal_t negative = goalMsg(5, {Eigen::Vector3d(5, 0, 1.5)});
   negative.tolerance = -1;
@@ -406,6 +410,9 @@ TEST_F(LocalPlannerNodeTest, RefusesBadStateEstimates) {
   odometry_t nan_velocity = odometryAt(t + kSecond, kStart);
   nan_velocity.linear_velocity[2] = INFINITY;
   expectRefused(nan_velocity, "infinite velocity");
+  odometry_t zero_orientation = odometryAt(t + kSecond, kStart);
+  zero_orientation.orientation[0] = 0;
+  expectRefused(zero_orientation, "not a unit quaternion");
   expectRefused(odometryAt(t - kSecond, Eigen::Vector3d(1, 1, 1)), "backwards in time");
   expectRefused(odometryAt(t, Eigen::Vector3d(1, 1, 1)), "the same time again");
   odometry_t lost = odometryAt(t + kSecond, Eigen::Vector3d(1, 1, 1));
@@ -577,6 +584,35 @@ TEST_F(LocalPlannerNodeTest, SetpointsFollowTheCommittedTrajectory) {
   EXPECT_NEAR(recorder.setpoints[1].yaw, sp.yaw, 1e-12);
   const Eigen::Vector3d end = committed.evaluate(committed.duration());
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(recorder.setpoints[1].position[i], end[i], 1e-12);
+}
+
+TEST_F(LocalPlannerNodeTest, AGoalWithYawsIsFlownFacingThem) {
+  const int64_t t = 5 * kSecond;
+  goal_t goal = goalMsg(52, {Eigen::Vector3d(10, 10, 1.5)});
+  goal.yaw_policy = goal_t::YAW_FIXED;
+  goal.yaws = {-2.0};
+  world.publish("MISSION_GOAL", goal);
+  world.publish("STATE_ESTIMATE", odometryAt(t, kStart));
+  publishAll(snapshot(freeEsdf(), t, 1));
+  loop.drain();
+  ASSERT_EQ(recorder.statuses.size(), 1u);
+  ASSERT_EQ(recorder.statuses[0].state, +planner_status_t::STATE_PLANNED)
+      << recorder.statuses[0].reason;
+  ASSERT_EQ(recorder.trajectories.size(), 1u);
+  EXPECT_EQ(recorder.trajectories[0].yaw_policy, +polynomial_trajectory_t::YAW_CONSTANT);
+  EXPECT_EQ(recorder.trajectories[0].yaw, -2.0);
+  // Its setpoints face the yaw, not the velocity (north-east), with no yaw rate.
+  ASSERT_TRUE(planner.publishSetpoint(t + kSecond));
+  loop.drain();
+  ASSERT_EQ(recorder.setpoints.size(), 1u);
+  EXPECT_EQ(recorder.setpoints[0].yaw, -2.0);
+  EXPECT_EQ(recorder.setpoints[0].yaw_rate, 0.0);
+
+  // A goal without yaws goes back to facing along the velocity.
+  recorder.clear();
+  ASSERT_TRUE(planNorthEast(t + kSecond));
+  ASSERT_EQ(recorder.trajectories.size(), 1u);
+  EXPECT_EQ(recorder.trajectories[0].yaw_policy, +polynomial_trajectory_t::YAW_ALONG_VELOCITY);
 }
 
 TEST_F(LocalPlannerNodeTest, SetpointsNameTheCycleWhoseTrajectoryTheyFollow) {

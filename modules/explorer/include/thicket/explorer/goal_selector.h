@@ -102,6 +102,9 @@ struct ExplorerOptions {
   /// local_exploration: candidates must be reachable from the start along a straight line that
   /// keeps the clearance RRT* and NBVP trees keep (treeClearance).
   bool reachable = false;
+  /// Send each proposal's yaws (YAW_FIXED): the planner flies the vehicle to each waypoint facing
+  /// its yaw and turns there. Off: the vehicle faces along its velocity (the paper).
+  bool fixed_yaw = false;
   int max_draws = 1000;  ///< random draws per request before giving up on finding N candidates
   Eigen::Vector3d flight_volume_min = Eigen::Vector3d(-1000, -1000, 0.5);
   Eigen::Vector3d flight_volume_max = Eigen::Vector3d(1000, 1000, 100);

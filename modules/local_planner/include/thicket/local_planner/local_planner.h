@@ -5,6 +5,10 @@
 // asks for an intermediate goal and waits for the answer before closing the cycle; an
 // intermediate goal (or waypoint list) is then tracked until it is reached or cannot be planned
 // toward, and the planner returns to the global goal. Waypoints are reached within a tolerance.
+// A goal may give each waypoint a yaw: the trajectory toward it is flown facing that yaw, and the
+// waypoint is reached only when the vehicle is there at that yaw (it stops and turns if it
+// arrives before it has turned). The stall watchdog (off by default) gives up a goal the
+// reference has not really moved toward for a few cycles, even when every cycle planned.
 //
 // Commitment. Each cycle plans from the *reference*: the committed trajectory at the cycle's
 // time (the estimate only when there is no committed trajectory or the two diverge). A cycle that
@@ -23,6 +27,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <optional>
 #include <string>
@@ -43,6 +48,10 @@ struct Goal {
   bool from_explorer = false;
   std::string strategy;  ///< the exploration strategy that proposed it
   std::vector<Eigen::Vector3d> waypoints;
+  /// Empty: the vehicle faces along its velocity. Else one yaw per waypoint [rad]: the vehicle
+  /// flies toward waypoint i facing yaws[i], and the waypoint counts as reached only once a frame
+  /// was taken there at that yaw (a waypoint at the vehicle's position is a look: hover and turn).
+  std::vector<double> yaws;
   double tolerance = 0;  ///< a waypoint is reached within this [m]; 0: the planner's default
 };
 
@@ -51,6 +60,7 @@ struct VehicleState {
   int64_t utime = 0;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  double yaw = 0;  ///< heading of the body (and the camera) [rad]
 };
 
 enum class CycleState { kPlanned, kStuck, kGoalReached, kHolding, kNoMap, kNoState, kStopping };
@@ -74,7 +84,8 @@ struct CycleReport {
   bool goal_from_explorer = false;
   Eigen::Vector3d goal = Eigen::Vector3d::Zero();
   Eigen::Vector3d horizon_goal = Eigen::Vector3d::Zero();
-  TrajectoryState start;  ///< the reference the cycle planned from
+  TrajectoryState start;   ///< the reference the cycle planned from
+  double vehicle_yaw = 0;  ///< the estimate's yaw at the cycle [rad]
   /// Why the rest of the committed trajectory failed the re-check and which stop replaced it;
   /// empty when it passed (or nothing was committed).
   std::string blocked;
@@ -83,6 +94,8 @@ struct CycleReport {
   double solve_ms = 0;  ///< wall-clock time of goal finding and optimization (measured)
   /// A trajectory committed by this cycle, to publish; absent when the committed one stands.
   std::optional<PolynomialTrajectory> trajectory;
+  /// The constant yaw the vehicle flies it with [rad]; absent: along the velocity.
+  std::optional<double> yaw;
 };
 
 struct LocalPlannerOptions {
@@ -107,8 +120,34 @@ struct LocalPlannerOptions {
   int64_t seed = 0;  ///< random restarts draw from seed ⊕ cycle
   /// The duration of a hover trajectory [s].
   double hover_duration = 1.0;
+  /// A waypoint with a yaw is reached once the vehicle's yaw is within this of it [rad].
+  double yaw_tolerance = 0.2;
+  /// The stall watchdog: a goal is given up (an intermediate goal dropped, the mission goal
+  /// reported stuck so the explorer decides) when the reference moved less than stall_distance
+  /// over the last stall_cycles consecutive cycles tracking the same waypoint, planned or not.
+  /// 0 turns it off (the paper's planner).
+  int stall_cycles = 0;
+  double stall_distance = 0.3;  ///< [m]
 
   void declare(Params& p);
+};
+
+/// The stall watchdog of one goal slot (mission or intermediate): the references of the last
+/// consecutive cycles that tracked the same waypoint of the same goal.
+class Watchdog {
+ public:
+  /// Records this cycle's reference; true when the last `cycles` cycles moved it less than
+  /// `distance` (never with cycles = 0).
+  bool stalled(int64_t goal_id, size_t waypoint, int64_t cycle, const Eigen::Vector3d& reference,
+               int cycles, double distance);
+  /// How far the reference moved over the window, after stalled() returned true [m].
+  double moved() const { return (references_.back() - references_.front()).norm(); }
+
+ private:
+  int64_t goal_id_ = -1;
+  size_t waypoint_ = 0;
+  int64_t last_cycle_ = -1;
+  std::deque<Eigen::Vector3d> references_;
 };
 
 class LocalPlanner {
@@ -143,6 +182,8 @@ class LocalPlanner {
 
   /// The committed trajectory, if any.
   const std::optional<PolynomialTrajectory>& committed() const { return committed_; }
+  /// The constant yaw it is flown with; absent: along its velocity.
+  const std::optional<double>& committedYaw() const { return committed_yaw_; }
   /// The cycle that committed it, or -1.
   int64_t committedCycle() const { return committed_cycle_; }
   const std::optional<Goal>& missionGoal() const { return mission_; }
@@ -179,9 +220,19 @@ class LocalPlanner {
   // Reports a cycle that commits no plan; hovers at `position` when nothing is committed yet.
   void hold(CycleReport& report, CycleState state, const std::string& reason,
             const std::optional<Eigen::Vector3d>& position);
-  void commit(const PolynomialTrajectory& trajectory, CycleReport& report);
-  // Advances past reached waypoints; true when the whole goal is reached.
-  bool advanceWaypoints(const Goal& goal, size_t& waypoint, const Eigen::Vector3d& position) const;
+  void commit(const PolynomialTrajectory& trajectory, const std::optional<double>& yaw,
+              CycleReport& report);
+  // Advances past reached waypoints (position, and yaw where the goal has one) at the report's
+  // reference and yaw; true when the whole goal is reached.
+  bool advanceWaypoints(const Goal& goal, size_t& waypoint, const CycleReport& report) const;
+  // The vehicle is at the current waypoint but not yet at its yaw: commits a stop from the
+  // reference (a hover, once it is at rest) flown at the waypoint's yaw. True when it did (the
+  // cycle is planned).
+  bool look(const Goal& goal, size_t waypoint, const DistanceField& field, CycleReport& report);
+  enum class Tracked { kReached, kCommitted, kFailed };
+  // One cycle toward a goal: advances its waypoints, looks, checks the watchdog and plans.
+  Tracked track(const Goal& goal, size_t& waypoint, Watchdog& watchdog, const DistanceField& field,
+                CycleReport& report);
 
   LocalPlannerOptions options_;
   std::function<double()> now_ms_;
@@ -192,7 +243,9 @@ class LocalPlanner {
   std::optional<Goal> intermediate_;
   size_t intermediate_waypoint_ = 0;
   std::optional<PolynomialTrajectory> committed_;
+  std::optional<double> committed_yaw_;
   int64_t committed_cycle_ = -1;
+  Watchdog mission_watchdog_, intermediate_watchdog_;
   int64_t cycle_ = 0;
   // The stuck cycle waiting for the explorer: its report so far.
   std::optional<CycleReport> waiting_;
