@@ -182,10 +182,10 @@ class LocalPlannerNodeTest : public ::testing::Test {
     for (const map_update_t& part : parts) world.publish("MAP_ESDF", part);
   }
 
-  // A mission goal to the north-east, an estimate at rest at kStart at t and an all-free
-  // snapshot at t: one planned cycle. Returns whether it planned.
-  bool planNorthEast(int64_t t) {
-    world.publish("MISSION_GOAL", goalMsg(51, {Eigen::Vector3d(10, 10, 1.5)}));
+  // `goal` as the mission, an estimate at rest at kStart at t and an all-free snapshot at t: one
+  // planned cycle. Returns whether it planned.
+  bool planFromStart(const goal_t& goal, int64_t t) {
+    world.publish("MISSION_GOAL", goal);
     world.publish("STATE_ESTIMATE", odometryAt(t, kStart));
     publishAll(snapshot(freeEsdf(), t, 1));
     loop.drain();
@@ -194,6 +194,10 @@ class LocalPlannerNodeTest : public ::testing::Test {
         << recorder.statuses[0].reason;
     return recorder.statuses[0].state == planner_status_t::STATE_PLANNED &&
            planner.planner().committed().has_value();
+  }
+  // The same toward a mission goal to the north-east.
+  bool planNorthEast(int64_t t) {
+    return planFromStart(goalMsg(51, {Eigen::Vector3d(10, 10, 1.5)}), t);
   }
 
   lcm::LCM lcm{"memq://"};
@@ -501,13 +505,7 @@ TEST_F(LocalPlannerNodeExplorerTest, AStuckCycleWaitsForTheExplorersAnswer) {
 
 TEST_F(LocalPlannerNodeTest, ARevisionThatBlocksTheCommittedTrajectoryStops) {
   const int64_t t = 5 * kSecond;
-  world.publish("MISSION_GOAL", goalMsg(61, {Eigen::Vector3d(10, 0, 1.5)}));
-  world.publish("STATE_ESTIMATE", odometryAt(t, kStart));
-  publishAll(snapshot(freeEsdf(), t, 1));
-  loop.drain();
-  ASSERT_EQ(recorder.statuses.size(), 1u);
-  ASSERT_EQ(recorder.statuses[0].state, +planner_status_t::STATE_PLANNED)
-      << recorder.statuses[0].reason;
+  ASSERT_TRUE(planFromStart(goalMsg(61, {Eigen::Vector3d(10, 0, 1.5)}), t));
   const PolynomialTrajectory committed = *planner.planner().committed();
 
   // 1 s later, flying toward it (~0.3 m/s, a stop takes ~4 cm), the next revision shows a wall
@@ -591,13 +589,7 @@ TEST_F(LocalPlannerNodeTest, AGoalWithYawsIsFlownFacingThem) {
   goal_t goal = goalMsg(52, {Eigen::Vector3d(10, 10, 1.5)});
   goal.yaw_policy = goal_t::YAW_FIXED;
   goal.yaws = {-2.0};
-  world.publish("MISSION_GOAL", goal);
-  world.publish("STATE_ESTIMATE", odometryAt(t, kStart));
-  publishAll(snapshot(freeEsdf(), t, 1));
-  loop.drain();
-  ASSERT_EQ(recorder.statuses.size(), 1u);
-  ASSERT_EQ(recorder.statuses[0].state, +planner_status_t::STATE_PLANNED)
-      << recorder.statuses[0].reason;
+  ASSERT_TRUE(planFromStart(goal, t));
   ASSERT_EQ(recorder.trajectories.size(), 1u);
   EXPECT_EQ(recorder.trajectories[0].yaw_policy, +polynomial_trajectory_t::YAW_CONSTANT);
   EXPECT_EQ(recorder.trajectories[0].yaw, -2.0);
