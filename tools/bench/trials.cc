@@ -39,19 +39,31 @@
 namespace thicket::bench {
 namespace {
 
-// The goal-selection strategies (BENCHMARK.md, E2): the explorer strategy a method runs, or
-// none (no explorer in the graph; the planner holds when stuck). Adding a strategy is adding a row.
+// The goal-selection methods (BENCHMARK.md, E2): the explorer strategy a method runs, or none
+// (no explorer in the graph; the planner holds when stuck), and the options it sets over the
+// shipped configuration (YAML over config/sim's explorer.yaml `explorer:` group and
+// local_planner.yaml `planner:` group). Adding a method or an ablation is adding a row.
 struct Method {
   const char* name;
   const char* strategy;  // explorer::ExplorerOptions::strategy, or nullptr
+  const char* explorer;  // over explorer::ExplorerOptions
+  const char* planner;   // over local_planner::LocalPlannerOptions
 };
+// The paper's semantics, whatever config/sim ships: the vehicle faces along its velocity, no look
+// around, no stall watchdog.
+constexpr const char* kPaperExplorer = "{fixed_yaw: false, look_around: {enabled: false}}";
+constexpr const char* kPaperPlanner = "{stall_cycles: 0}";
 const Method kMethods[] = {
-    {"none", nullptr},
-    {"random", "random"},
-    {"rrt_star_optimistic", "rrt_star_optimistic"},
-    {"rrt_star_conservative", "rrt_star_conservative"},
-    {"nbvp", "nbvp"},
-    {"local_exploration", "local_exploration"},
+    {"none", nullptr, kPaperExplorer, kPaperPlanner},
+    {"random", "random", kPaperExplorer, kPaperPlanner},
+    {"rrt_star_optimistic", "rrt_star_optimistic", kPaperExplorer, kPaperPlanner},
+    {"rrt_star_conservative", "rrt_star_conservative", kPaperExplorer, kPaperPlanner},
+    {"nbvp", "nbvp", kPaperExplorer, kPaperPlanner},
+    {"local_exploration", "local_exploration", kPaperExplorer, kPaperPlanner},
+    // Ablation: the paper's method, its candidates flown facing their yaw, a look around at each
+    // new stuck place, and the stall watchdog.
+    {"local_exploration_look", "local_exploration",
+     "{fixed_yaw: true, look_around: {enabled: true}}", "{stall_cycles: 4}"},
 };
 
 // The goal-finding variants of the optimization-only experiment (BENCHMARK.md, E1).
@@ -390,6 +402,7 @@ TrialGraphOptions trialGraphOptions(const std::string& method, const std::string
     explorer::ExplorerNodeOptions explorer =
         loadParams<explorer::ExplorerNodeOptions>(dir + "/explorer.yaml");
     explorer.explorer.strategy = strategy.strategy;
+    overrideParams(explorer.explorer, strategy.explorer, "method " + method);
     explorer.explorer.seed = static_cast<int64_t>(seed);
     explorer.explorer.flight_volume_min = volume_min;
     explorer.explorer.flight_volume_max = volume_max;
@@ -402,6 +415,7 @@ TrialGraphOptions trialGraphOptions(const std::string& method, const std::string
     graph.explorer->explorer.min_clearance =
         node.planner.loco.robot_radius + node.planner.loco.clearance_margin;
   }
+  overrideParams(node.planner, strategy.planner, "method " + method);
   node.planner.goal_finder.method = variant.finder_method;
   node.planner.soft_goal = variant.soft_goal;
   node.planner.seed = static_cast<int64_t>(seed);

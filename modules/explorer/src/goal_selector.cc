@@ -34,8 +34,18 @@ void ExplorerOptions::declare(Params& p) {
   p("flight_volume_min", flight_volume_min, "candidates lie in this box: its low corner [m]");
   p("flight_volume_max", flight_volume_max, "... and its high corner [m]");
   p.group("gain", gain, "the camera whose frustum the exploration gain counts");
+  p.group("look_around", look_around,
+          "answer the first stuck request at each place with a turn in place (needs fixed_yaw)");
   p.group("rrt_star", rrt_star, "the RRT* baselines (rrt_star_optimistic, rrt_star_conservative)");
   p.group("nbvp", nbvp, "the next-best-view baseline");
+}
+
+void LookAroundOptions::declare(Params& p) {
+  p("enabled", enabled, "look around before the strategy is asked");
+  p("radius", radius, "a place is where a look was answered, within this [m]", Range::positive());
+  p("headings", headings, "headings compared, evenly spaced", Range::between(1, 360));
+  p("min_gain", min_gain, "a view with less visible unknown fraction is not worth a look",
+    Range::between(0, 1));
 }
 
 void RrtStarOptions::declare(Params& p) {
@@ -225,6 +235,20 @@ bool observedFree(const ExplorerOptions& o, const MapView& maps, const Eigen::Ve
 
 }  // namespace detail
 
+namespace {
+
+std::unique_ptr<GoalSelector> makeStrategy(const ExplorerOptions& o) {
+  if (o.strategy == "none") return std::make_unique<NoneSelector>();
+  if (o.strategy == "random") return std::make_unique<RandomSelector>(o);
+  if (o.strategy == "local_exploration") return std::make_unique<LocalExplorationSelector>(o);
+  if (o.strategy == "rrt_star_optimistic") return detail::makeRrtStar(o, /*optimistic=*/true);
+  if (o.strategy == "rrt_star_conservative") return detail::makeRrtStar(o, /*optimistic=*/false);
+  if (o.strategy == "nbvp") return detail::makeNbvp(o);
+  throw std::invalid_argument("explorer: unknown strategy '" + o.strategy + "'");
+}
+
+}  // namespace
+
 const std::vector<std::string>& strategyNames() {
   static const std::vector<std::string> names = {
       "none", "random",           "rrt_star_optimistic", "rrt_star_conservative",
@@ -245,16 +269,15 @@ std::unique_ptr<GoalSelector> makeGoalSelector(const ExplorerOptions& o) {
       o.nbvp.initial_nodes < 1 || o.nbvp.max_nodes < o.nbvp.initial_nodes ||
       !positive(o.nbvp.range) || !(o.nbvp.lambda >= 0) || !std::isfinite(o.nbvp.lambda) ||
       !(o.nbvp.zero_gain >= 0) || !std::isfinite(o.nbvp.zero_gain) ||
-      !positive(o.nbvp.check_step)) {
+      !positive(o.nbvp.check_step) || !positive(o.look_around.radius) ||
+      o.look_around.headings < 1 || !(o.look_around.min_gain >= 0 && o.look_around.min_gain <= 1)) {
     throw std::invalid_argument("explorer: an option is out of range (see ExplorerOptions)");
   }
-  if (o.strategy == "none") return std::make_unique<NoneSelector>();
-  if (o.strategy == "random") return std::make_unique<RandomSelector>(o);
-  if (o.strategy == "local_exploration") return std::make_unique<LocalExplorationSelector>(o);
-  if (o.strategy == "rrt_star_optimistic") return detail::makeRrtStar(o, /*optimistic=*/true);
-  if (o.strategy == "rrt_star_conservative") return detail::makeRrtStar(o, /*optimistic=*/false);
-  if (o.strategy == "nbvp") return detail::makeNbvp(o);
-  throw std::invalid_argument("explorer: unknown strategy '" + o.strategy + "'");
+  if (o.look_around.enabled && !o.fixed_yaw) {
+    throw std::invalid_argument("explorer: look_around needs fixed_yaw (a look is a yaw)");
+  }
+  std::unique_ptr<GoalSelector> strategy = makeStrategy(o);
+  return o.look_around.enabled ? detail::lookAround(o, std::move(strategy)) : std::move(strategy);
 }
 
 }  // namespace thicket::explorer

@@ -33,6 +33,11 @@ std::unique_ptr<GoalSelector> makeRrtStar(const ExplorerOptions& options, bool o
 /// nbvp; nbvp.cc.
 std::unique_ptr<GoalSelector> makeNbvp(const ExplorerOptions& options);
 
+/// `strategy` behind a look-around (look_around.cc): the first stuck request at each place is
+/// answered with a turn in place.
+std::unique_ptr<GoalSelector> lookAround(const ExplorerOptions& options,
+                                         std::unique_ptr<GoalSelector> strategy);
+
 /// Inside the flight volume (bounds included).
 bool inFlightVolume(const ExplorerOptions& options, const Eigen::Vector3d& p);
 

@@ -129,6 +129,62 @@ TEST(GoalSelector, LocalExplorationSaysWhenThereIsNoMapOrNoCandidate) {
   EXPECT_NE(p.reason.find("no observed free point"), std::string::npos) << p.reason;
 }
 
+TEST(GoalSelector, LookAroundTurnsOncePerPlaceTowardTheMostUnknownThenAsksTheStrategy) {
+  ExplorerOptions o = optionsFor("local_exploration");
+  o.p_goal = 0;
+  o.fixed_yaw = true;
+  o.look_around.enabled = true;
+  // Observed only where y >= 0 (and far above and below the camera's view): what the vehicle has
+  // not seen lies on its right, heading -pi/2; looking left (+pi/2) sees nothing new.
+  const HandMap map = observedBox({-8, 0, -4}, {8, 8, 7});
+  const ExplorationGain gain(o.gain, kVoxel);
+  const auto unknownAt = [&](const Eigen::Vector3d& x, double yaw) {
+    return gain.visibleUnknownFraction(map.tsdf, ExplorationGain::cameraAt(x, yaw), o.subsample)
+        .unknown_fraction;
+  };
+  const auto selector = makeGoalSelector(o);
+  const auto plain = makeGoalSelector([&] {
+    ExplorerOptions without = o;
+    without.look_around.enabled = false;
+    return without;
+  }());
+  ExplorationRequest r = request(1);
+  r.start = Eigen::Vector3d(0, 1, 1.5);
+
+  const Proposal look = selector->select(r, map.view());
+  ASSERT_TRUE(look.found) << look.reason;
+  ASSERT_EQ(look.waypoints, std::vector<Eigen::Vector3d>{r.start});
+  ASSERT_EQ(look.yaws.size(), 1u);
+  EXPECT_NEAR(look.yaws[0], -M_PI / 2, 1e-12);
+  EXPECT_TRUE(look.reason.starts_with("look around")) << look.reason;
+  EXPECT_EQ(look.gain_evaluations, o.look_around.headings);
+  EXPECT_NEAR(look.score, unknownAt(r.start, -M_PI / 2), 1e-12);
+  for (int k = 0; k < o.look_around.headings; ++k) {
+    EXPECT_LE(unknownAt(r.start, 2 * M_PI * k / o.look_around.headings), look.score) << k;
+  }
+  EXPECT_LT(unknownAt(r.start, M_PI / 2), o.look_around.min_gain);
+
+  // Asked again at the same place (within radius), the strategy answers, as it would alone.
+  r.cycle = 2;
+  r.start.x() += 0.5 * o.look_around.radius;
+  const Proposal next = selector->select(r, map.view());
+  const Proposal alone = plain->select(r, map.view());
+  ASSERT_TRUE(next.found) << next.reason;
+  EXPECT_EQ(next.waypoints, alone.waypoints);
+  EXPECT_EQ(next.yaws, alone.yaws);
+  EXPECT_EQ(next.reason, alone.reason);
+
+  // A new place gets its own look; a place where every view is known gets none.
+  r.cycle = 3;
+  r.start = Eigen::Vector3d(3, 1, 1.5);
+  EXPECT_TRUE(selector->select(r, map.view()).reason.starts_with("look around"));
+  const HandMap known = observedBox({-12, -12, -6}, {12, 12, 9});
+  r.cycle = 4;
+  r.start = Eigen::Vector3d(-3, 1, 1.5);
+  const Proposal none = selector->select(r, known.view());
+  EXPECT_FALSE(none.reason.starts_with("look around")) << none.reason;
+}
+
 TEST(GoalSelector, RefusesUnknownStrategiesAndBadOptions) {
   EXPECT_THROW(makeGoalSelector(optionsFor("teleport")), std::invalid_argument);
   ExplorerOptions o = optionsFor("random");
@@ -136,6 +192,13 @@ TEST(GoalSelector, RefusesUnknownStrategiesAndBadOptions) {
   EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
   o = optionsFor("random");
   o.radius = NAN;
+  EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
+  o = optionsFor("random");
+  o.look_around.enabled = true;  // without fixed_yaw a look is no goal
+  EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
+  o.fixed_yaw = true;
+  EXPECT_NO_THROW(makeGoalSelector(o));
+  o.look_around.headings = 0;
   EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
 }
 

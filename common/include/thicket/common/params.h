@@ -20,6 +20,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -146,14 +147,23 @@ class Params {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Loads the keys present in the YAML text over `options`; the others keep their values. `source`
+/// names the text in error messages. Throws ParamError, and then `options` is unchanged.
+template <class Options>
+void overrideParams(Options& options, const std::string& yaml, const std::string& source) {
+  Options copy = options;
+  detail::loadInto(yaml, source, &copy,
+                   [](void* o, Params& p) { static_cast<Options*>(o)->declare(p); });
+  options = std::move(copy);
+}
+
 /// Options parsed from YAML text; `source` names the text in error messages. Keys absent from the
 /// text keep their defaults; an empty document gives all defaults. Throws ParamError. The result
 /// is either fully loaded or not returned at all.
 template <class Options>
 Options loadParamsFromString(const std::string& yaml, const std::string& source) {
   Options options;
-  detail::loadInto(yaml, source, &options,
-                   [](void* o, Params& p) { static_cast<Options*>(o)->declare(p); });
+  overrideParams(options, yaml, source);
   return options;
 }
 

@@ -19,6 +19,9 @@
 //                      sampled in observed free space within r of the start, each facing away from
 //                      the start, scored R = w_e l + w_g (d_g - ||g - x||) / d_g with l the unknown
 //                      fraction of its view (every s-th frustum voxel) and d_g = ||g - x_s|| + r
+//
+// look_around (any strategy, with fixed_yaw) answers the first stuck request at each place with a
+// turn in place toward the heading that sees the most unknown space, before the strategy is asked.
 #pragma once
 
 #include <cstdint>
@@ -58,6 +61,18 @@ struct Proposal {
   std::string reason;                      ///< why nothing was found, or how it was chosen
   bool map_missing = false;                ///< nothing found because the strategy has no map
   int64_t gain_evaluations = 0;
+};
+
+/// Look-around: the first stuck request at each place is answered with a look, a waypoint at the
+/// start with the heading whose view has the most visible unknown space; later requests there go
+/// to the strategy. Needs fixed_yaw (a look without a yaw is no goal).
+struct LookAroundOptions {
+  bool enabled = false;
+  double radius = 1.0;    ///< a place is where a look was answered, within this [m]
+  int headings = 8;       ///< headings compared, evenly spaced
+  double min_gain = 0.1;  ///< a view with less visible unknown is not worth a look
+
+  void declare(Params& p);
 };
 
 /// The RRT* baselines. Budgets are iterations, so answers are deterministic.
@@ -109,6 +124,7 @@ struct ExplorerOptions {
   Eigen::Vector3d flight_volume_min = Eigen::Vector3d(-1000, -1000, 0.5);
   Eigen::Vector3d flight_volume_max = Eigen::Vector3d(1000, 1000, 100);
   GainOptions gain;
+  LookAroundOptions look_around;
   RrtStarOptions rrt_star;
   NbvpOptions nbvp;
 
