@@ -78,9 +78,9 @@ const std::vector<Plan>& plans() {
     return std::vector<Plan>{
         {"E1", {"paper"}, paper, {"none"}, goalFindingNames(), 100, 60},
         {"E2", {"paper", "eth"}, paper, methodNames(), {"soft"}, 50, 120},
-        {"E4", {"forest50"}, {0.1, 0.2}, methodNames(), {"soft"}, 20, 500},
+        {"E4", {"forest50"}, {0.1, 0.2}, methodNames(false), {"soft"}, 20, 500},
         // A path blocked in flight: a cylinder appears on the committed trajectory.
-        {"E6", {"paper"}, {0.2}, methodNames(), {"soft"}, 20, 60, true},
+        {"E6", {"paper"}, {0.2}, methodNames(false), {"soft"}, 20, 60, true},
     };
   }();
   return table;

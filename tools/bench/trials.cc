@@ -45,9 +45,10 @@ namespace {
 // local_planner.yaml `planner:` group). Adding a method or an ablation is adding a row.
 struct Method {
   const char* name;
-  const char* strategy;  // explorer::ExplorerOptions::strategy, or nullptr
-  const char* explorer;  // over explorer::ExplorerOptions
-  const char* planner;   // over local_planner::LocalPlannerOptions
+  const char* strategy;   // explorer::ExplorerOptions::strategy, or nullptr
+  const char* explorer;   // over explorer::ExplorerOptions
+  const char* planner;    // over local_planner::LocalPlannerOptions
+  bool ablation = false;  // flown in E2 only, to show what one mechanism buys
 };
 // The paper's semantics, whatever config/sim ships: the vehicle faces along its velocity, no look
 // around, no stall watchdog.
@@ -63,7 +64,7 @@ const Method kMethods[] = {
     // Ablation: the paper's method, its candidates flown facing their yaw, a look around at each
     // new stuck place, and the stall watchdog.
     {"local_exploration_look", "local_exploration",
-     "{fixed_yaw: true, look_around: {enabled: true}}", "{stall_cycles: 4}"},
+     "{fixed_yaw: true, look_around: {enabled: true}}", "{stall_cycles: 4}", true},
 };
 
 // The goal-finding variants of the optimization-only experiment (BENCHMARK.md, E1).
@@ -366,9 +367,10 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
   return result;
 }
 
-std::vector<std::string> methodNames() {
+std::vector<std::string> methodNames(bool with_ablations) {
   std::vector<std::string> names;
-  for (const Method& method : kMethods) names.emplace_back(method.name);
+  for (const Method& method : kMethods)
+    if (with_ablations || !method.ablation) names.emplace_back(method.name);
   return names;
 }
 

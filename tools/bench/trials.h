@@ -115,8 +115,9 @@ TrialResult runTrial(const RunOptions& options, const sim::World& world, int tri
 sim::World trialWorld(const RunOptions& options, int trial);
 
 /// The methods (goal-selection strategies) and goal-finding variants trials accept, in their
-/// fixed order.
-std::vector<std::string> methodNames();
+/// fixed order; without the ablations (variants of a method that E2 flies to show what one
+/// mechanism buys) when `with_ablations` is false.
+std::vector<std::string> methodNames(bool with_ablations = true);
 std::vector<std::string> goalFindingNames();
 /// Whether `method` must never collide (BENCHMARK.md): every method but rrt_star_optimistic, the
 /// one that plans through unknown space.

@@ -19,6 +19,7 @@
 #include "csv.h"
 #include "experiments.h"
 #include "thicket/common/lcm_log.h"
+#include "trials.h"
 
 namespace thicket::bench {
 namespace {
@@ -86,9 +87,12 @@ std::vector<TrialSpec> list(std::vector<std::string> args) {
 
 TEST(BenchExperimentList, CoversTheExperimentsInAFixedOrder) {
   const std::vector<TrialSpec> all = list({});
-  // E1: 10 densities x 3 goal findings x 100; E2: 2 scenarios x 10 x 6 methods x 50; E4: 2 x 6
-  // x 20; E6: 1 x 6 x 20.
-  ASSERT_EQ(all.size(), 3000u + 6000u + 240u + 120u);
+  // E1: 10 densities x 3 goal findings x 100; E2: 2 scenarios x 10 x every method x 50; E4: 2 x
+  // the paper's six x 20; E6: 1 x 6 x 20.
+  const size_t methods = methodNames().size();
+  ASSERT_EQ(methodNames(false).size(), 6u);
+  ASSERT_GT(methods, 6u);
+  ASSERT_EQ(all.size(), 3000u + 1000u * methods + 240u + 120u);
   std::set<std::string> keys;
   for (const TrialSpec& spec : all) keys.insert(spec.key());
   EXPECT_EQ(keys.size(), all.size()) << "keys are not unique";
@@ -102,17 +106,20 @@ TEST(BenchExperimentList, CoversTheExperimentsInAFixedOrder) {
   EXPECT_EQ(all[30].key(), "E1/paper/d0.05/none/line/depth/s1");
   EXPECT_EQ(all[3000].key(), "E2/paper/d0.05/none/soft/depth/s0");
   EXPECT_EQ(all[3001].key(), "E2/paper/d0.05/random/soft/depth/s0");
-  EXPECT_EQ(all[3006].key(), "E2/paper/d0.1/none/soft/depth/s0");
-  EXPECT_EQ(all[3060].key(), "E2/eth/d0.05/none/soft/depth/s0");
-  EXPECT_EQ(all[3120].key(), "E2/paper/d0.05/none/soft/depth/s1");
-  EXPECT_EQ(all[9000].key(), "E4/forest50/d0.1/none/soft/depth/s0");
-  EXPECT_EQ(all[9240].key(), "E6/paper/d0.2/none/soft/depth/s0");
+  EXPECT_EQ(all[3000 + methods].key(), "E2/paper/d0.1/none/soft/depth/s0");
+  EXPECT_EQ(all[3000 + 10 * methods].key(), "E2/eth/d0.05/none/soft/depth/s0");
+  EXPECT_EQ(all[3000 + 20 * methods].key(), "E2/paper/d0.05/none/soft/depth/s1");
+  const size_t e4 = 3000 + 1000 * methods, e6_start = e4 + 240;
+  EXPECT_EQ(all[e4].key(), "E4/forest50/d0.1/none/soft/depth/s0");
+  EXPECT_EQ(all[e4 + 5].key(), "E4/forest50/d0.1/local_exploration/soft/depth/s0");
+  EXPECT_EQ(all[e4 + 6].key(), "E4/forest50/d0.2/none/soft/depth/s0");
+  EXPECT_EQ(all[e6_start].key(), "E6/paper/d0.2/none/soft/depth/s0");
   EXPECT_EQ(all.back().key(), "E6/paper/d0.2/local_exploration/soft/depth/s19");
   EXPECT_EQ(all[0].replans, 60);
   EXPECT_EQ(all[3000].replans, 120);
-  EXPECT_EQ(all[3060].replans, 120);
-  EXPECT_EQ(all[9000].replans, 500);
-  EXPECT_EQ(all[9240].replans, 60);
+  EXPECT_EQ(all[3000 + 10 * methods].replans, 120);
+  EXPECT_EQ(all[e4].replans, 500);
+  EXPECT_EQ(all[e6_start].replans, 60);
   EXPECT_EQ(all[30].trial, 1);
   EXPECT_EQ(all[30].seed, 1u);
   // Only E6 flies the dynamic obstacle.
@@ -122,14 +129,14 @@ TEST(BenchExperimentList, CoversTheExperimentsInAFixedOrder) {
 
   // E3 is E2's trials, T1 E4's; E5 flies none; --scenario picks E2's scenario.
   std::vector<TrialSpec> e2 = list({"--experiment", "E2"});
-  ASSERT_EQ(e2.size(), 6000u);
+  ASSERT_EQ(e2.size(), 1000u * methods);
   EXPECT_EQ(e2.front().key(), all[3000].key());
-  EXPECT_EQ(list({"--experiment", "E3"}).size(), 6000u);
-  EXPECT_EQ(list({"--experiment", "E3,E2"}).size(), 6000u);
+  EXPECT_EQ(list({"--experiment", "E3"}).size(), 1000u * methods);
+  EXPECT_EQ(list({"--experiment", "E3,E2"}).size(), 1000u * methods);
   const std::vector<TrialSpec> eth = list({"--experiment", "E2", "--scenario", "eth"});
-  ASSERT_EQ(eth.size(), 3000u);
+  ASSERT_EQ(eth.size(), 500u * methods);
   EXPECT_EQ(eth.front().key(), "E2/eth/d0.05/none/soft/depth/s0");
-  EXPECT_EQ(list({"--experiment", "E2", "--scenario", "paper"}).size(), 3000u);
+  EXPECT_EQ(list({"--experiment", "E2", "--scenario", "paper"}).size(), 500u * methods);
   EXPECT_EQ(list({"--experiment", "T1"}).size(), 240u);
   EXPECT_TRUE(list({"--experiment", "E5"}).empty());
   const std::vector<TrialSpec> e6 = list({"--experiment", "E6"});
@@ -138,7 +145,7 @@ TEST(BenchExperimentList, CoversTheExperimentsInAFixedOrder) {
   EXPECT_TRUE(e6.front().dynamic_obstacle);
 
   // The smoke run's selection: every experiment at density 0.2.
-  EXPECT_EQ(list({"--density", "0.2"}).size(), 300u + 600u + 120u + 120u);
+  EXPECT_EQ(list({"--density", "0.2"}).size(), 300u + 100u * methods + 120u + 120u);
 
   // The selection narrows the list; --trials, --seed-base and --replans change it.
   const std::vector<TrialSpec> small =
@@ -162,7 +169,7 @@ TEST(BenchExperimentList, CoversTheExperimentsInAFixedOrder) {
                         }));
   EXPECT_EQ(list({"--experiment", "E1,E4", "--density", "0.2"}).size(), 300u + 120u);
   EXPECT_EQ(list({"--scenario", "forest50"}).size(), 240u);
-  EXPECT_EQ(list({"--scenario", "paper"}).size(), 3000u + 3000u + 120u);
+  EXPECT_EQ(list({"--scenario", "paper"}).size(), 3000u + 500u * methodNames().size() + 120u);
 }
 
 TEST(BenchExperimentList, EveryTrialIsInExactlyOneShard) {
