@@ -65,6 +65,10 @@ const Method kMethods[] = {
     // new stuck place, and the stall watchdog.
     {"local_exploration_look", "local_exploration",
      "{fixed_yaw: true, look_around: {enabled: true}}", "{stall_cycles: 4}", true},
+    // Ablation: the paper's method, its candidates only where a straight line from the vehicle
+    // keeps the clearance, and never the global goal as its answer.
+    {"local_exploration_reachable", "local_exploration", "{reachable: true, p_goal: 0.0}",
+     kPaperPlanner, true},
 };
 
 // The goal-finding variants of the optimization-only experiment (BENCHMARK.md, E1).

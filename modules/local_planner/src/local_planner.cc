@@ -1,5 +1,6 @@
 #include "thicket/local_planner/local_planner.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -59,6 +60,10 @@ void LocalPlannerOptions::declare(Params& p) {
     "many consecutive cycles on one waypoint; 0: off",
     Range::between(0, 1000));
   p("stall_distance", stall_distance, "... that distance [m]", Range::positive());
+  p("carrot", carrot,
+    "follow a goal's waypoints as a path: end each trajectory, at rest, at the farthest point of "
+    "the polyline within the horizon a free straight segment reaches (the soft goal as fallback); "
+    "false: a soft goal toward each waypoint in turn (the paper)");
 }
 
 bool Watchdog::stalled(int64_t goal_id, size_t waypoint, int64_t cycle,
@@ -131,7 +136,7 @@ std::optional<std::string> LocalPlanner::validate(const Goal& goal) const {
 std::optional<std::string> LocalPlanner::setMissionGoal(const Goal& goal) {
   if (auto refused = validate(goal)) return refused;
   mission_ = goal;
-  mission_waypoint_ = 0;
+  mission_progress_ = {};
   intermediate_.reset();
   return std::nullopt;
 }
@@ -159,15 +164,18 @@ std::optional<double> waypointYaw(const Goal& goal, size_t waypoint) {
 
 }  // namespace
 
+bool LocalPlanner::yawToReach(const Goal& goal, size_t i) const {
+  return !goal.yaws.empty() && (!options_.carrot || i + 1 == goal.waypoints.size());
+}
+
 bool LocalPlanner::advanceWaypoints(const Goal& goal, size_t& waypoint,
                                     const CycleReport& report) const {
   const auto reached = [&](size_t i) {
     if ((goal.waypoints[i] - report.start.position).norm() > tolerance(goal, options_)) {
       return false;
     }
-    const std::optional<double> yaw = waypointYaw(goal, i);
-    return !yaw ||
-           std::abs(std::remainder(report.vehicle_yaw - *yaw, 2 * M_PI)) <= options_.yaw_tolerance;
+    return !yawToReach(goal, i) || std::abs(std::remainder(report.vehicle_yaw - goal.yaws[i],
+                                                           2 * M_PI)) <= options_.yaw_tolerance;
   };
   while (waypoint < goal.waypoints.size() && reached(waypoint)) ++waypoint;
   return waypoint == goal.waypoints.size();
@@ -184,11 +192,11 @@ void LocalPlanner::commit(const PolynomialTrajectory& trajectory, const std::opt
 
 bool LocalPlanner::look(const Goal& goal, size_t waypoint, const DistanceField& field,
                         CycleReport& report) {
-  const std::optional<double> yaw = waypointYaw(goal, waypoint);
-  if (!yaw ||
+  if (!yawToReach(goal, waypoint) ||
       (goal.waypoints[waypoint] - report.start.position).norm() > tolerance(goal, options_)) {
     return false;
   }
+  const double yaw = goal.yaws[waypoint];
   report.goal_id = goal.id;
   report.goal_from_explorer = goal.from_explorer;
   report.goal = goal.waypoints[waypoint];
@@ -196,25 +204,28 @@ bool LocalPlanner::look(const Goal& goal, size_t waypoint, const DistanceField& 
   // Stop where it is (stay, if it is at rest) and turn.
   commit(planStop(report.utime, report.start, field, options_.loco).trajectory, yaw, report);
   report.state = CycleState::kPlanned;
-  report.reason = format("looking: turning from yaw %.2f to %.2f rad at the waypoint",
-                         report.vehicle_yaw, *yaw);
+  report.reason =
+      format("looking: turning from yaw %.2f to %.2f rad at the waypoint", report.vehicle_yaw, yaw);
   return true;
 }
 
-LocalPlanner::Tracked LocalPlanner::track(const Goal& goal, size_t& waypoint, Watchdog& watchdog,
+LocalPlanner::Tracked LocalPlanner::track(const Goal& goal, Progress& progress,
                                           const DistanceField& field, CycleReport& report) {
-  if (advanceWaypoints(goal, waypoint, report)) return Tracked::kReached;
-  if (watchdog.stalled(goal.id, waypoint, report.cycle, report.start.position,
-                       options_.stall_cycles, options_.stall_distance)) {
+  const size_t before = progress.waypoint;
+  if (advanceWaypoints(goal, progress.waypoint, report)) return Tracked::kReached;
+  if (progress.waypoint != before) progress.carrot.reset();
+  const size_t waypoint = progress.waypoint;
+  if (progress.watchdog.stalled(goal.id, waypoint, report.cycle, report.start.position,
+                                options_.stall_cycles, options_.stall_distance)) {
     report.goal_id = goal.id;
     report.goal_from_explorer = goal.from_explorer;
     report.goal = goal.waypoints[waypoint];
     report.reason = format("stalled: the reference moved %.2f m in the last %.0f cycles",
-                           watchdog.moved(), options_.stall_cycles);
+                           progress.watchdog.moved(), options_.stall_cycles);
     return Tracked::kFailed;
   }
   if (look(goal, waypoint, field, report)) return Tracked::kCommitted;
-  return planToward(goal, waypoint, field, report) ? Tracked::kCommitted : Tracked::kFailed;
+  return planToward(goal, progress, field, report) ? Tracked::kCommitted : Tracked::kFailed;
 }
 
 void LocalPlanner::hold(CycleReport& report, CycleState state, const std::string& reason,
@@ -309,34 +320,81 @@ std::optional<std::string> LocalPlanner::optimizeToward(const SplineEnds& ends, 
   return std::nullopt;
 }
 
-bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
+std::optional<LocalPlanner::Carrot> LocalPlanner::carrot(const Goal& goal, const Progress& progress,
+                                                         const Eigen::Vector3d& start,
+                                                         const DistanceField& field) const {
+  const double step = 0.1, horizon = options_.goal_finder.horizon;
+  const double clearance = requiredClearance();
+  const auto freeFrom = [&](const Eigen::Vector3d& end) {
+    const int n = std::max(1, static_cast<int>(std::ceil((end - start).norm() / step)));
+    for (int k = 1; k <= n; ++k) {
+      const EsdfSample sample = field(start + (end - start) * (static_cast<double>(k) / n));
+      if (!sample.known || sample.distance < clearance) return false;
+    }
+    return true;
+  };
+  std::vector<Eigen::Vector3d> path;
+  if (progress.carrot) path.push_back(*progress.carrot);
+  path.insert(path.end(), goal.waypoints.begin() + static_cast<long>(progress.waypoint),
+              goal.waypoints.end());
+  std::optional<Carrot> best;
+  Eigen::Vector3d from = start;
+  for (size_t j = 0; j < path.size(); ++j) {
+    const Eigen::Vector3d& to = path[j];
+    const size_t i = progress.waypoint + (progress.carrot && j > 0 ? j - 1 : j);
+    const int n = std::max(1, static_cast<int>(std::ceil((to - from).norm() / step)));
+    for (int k = 1; k <= n; ++k) {
+      const Eigen::Vector3d p = from + (to - from) * (static_cast<double>(k) / n);
+      if ((p - start).norm() > horizon) return best;
+      if (freeFrom(p)) best = Carrot{p, i};
+    }
+    from = to;
+  }
+  return best;
+}
+
+bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const DistanceField& field,
                               CycleReport& report) {
-  const Eigen::Vector3d& target = goal.waypoints[waypoint];
+  const size_t waypoint = progress.waypoint;
   report.goal_id = goal.id;
   report.goal_from_explorer = goal.from_explorer;
-  report.goal = target;
   const double t0 = now_ms_();
-  const FoundGoal found = goal_finder_.find(report.start.position, target, field);
-  report.horizon_goal = found.position;
-  if (!found.free && !options_.soft_goal) {
-    report.loco = LocoResult{};
-    report.solve_ms += now_ms_() - t0;
-    report.reason = format("no free horizon goal found; the search ended at (%.2f, %.2f, %.2f)",
-                           found.position.x(), found.position.y(), found.position.z());
-    return false;
-  }
   SplineEnds ends;
   ends.start_position = report.start.position;
   ends.start_velocity = report.start.velocity;
   ends.start_acceleration = report.start.acceleration;
-  ends.end_position = found.position;
-  std::optional<std::string> refused =
-      optimizeToward(ends, options_.soft_goal, target, field, report);
-  // The final approach: when the horizon goal is the waypoint itself and free, a refused soft
-  // plan (its end balanced against the collision potential short of a waypoint near obstacles,
-  // every cycle the same) is followed by one whose end is fixed at the waypoint.
-  if (refused && options_.soft_goal && found.free && found.position == target) {
-    refused = optimizeToward(ends, /*free_end=*/false, target, field, report);
+  size_t to = waypoint;  // the waypoint the committed plan flies toward
+  std::optional<std::string> refused = "";
+  // The carrot: a fixed end on the path, passing the waypoints before it.
+  std::optional<Carrot> c;
+  if (options_.carrot) c = carrot(goal, progress, report.start.position, field);
+  if (c && (c->position - report.start.position).norm() > options_.goal_tolerance) {
+    to = c->waypoint;
+    report.goal = goal.waypoints[to];
+    report.horizon_goal = ends.end_position = c->position;
+    refused = optimizeToward(ends, /*free_end=*/false, report.goal, field, report);
+    report.carrot = !refused;
+  }
+  if (refused) {  // no carrot, or none that could be flown: the soft goal
+    to = waypoint;
+    const Eigen::Vector3d& target = goal.waypoints[to];
+    report.goal = target;
+    const FoundGoal found = goal_finder_.find(report.start.position, target, field);
+    report.horizon_goal = ends.end_position = found.position;
+    if (!found.free && !options_.soft_goal) {
+      report.loco = LocoResult{};
+      report.solve_ms += now_ms_() - t0;
+      report.reason = format("no free horizon goal found; the search ended at (%.2f, %.2f, %.2f)",
+                             found.position.x(), found.position.y(), found.position.z());
+      return false;
+    }
+    refused = optimizeToward(ends, options_.soft_goal, target, field, report);
+    // The final approach: when the horizon goal is the waypoint itself and free, a refused soft
+    // plan (its end balanced against the collision potential short of a waypoint near obstacles,
+    // every cycle the same) is followed by one whose end is fixed at the waypoint.
+    if (refused && options_.soft_goal && found.free && found.position == target) {
+      refused = optimizeToward(ends, /*free_end=*/false, target, field, report);
+    }
   }
   report.solve_ms += now_ms_() - t0;
   if (refused) {
@@ -348,7 +406,9 @@ bool LocalPlanner::planToward(const Goal& goal, size_t waypoint, const DistanceF
     report.reason = "the optimizer returned an invalid trajectory: " + trajectory.error();
     return false;
   }
-  commit(*trajectory, waypointYaw(goal, waypoint), report);
+  progress.waypoint = to;
+  if (report.carrot) progress.carrot = c->position;
+  commit(*trajectory, waypointYaw(goal, to), report);
   report.state = CycleState::kPlanned;
   report.reason.clear();
   return true;
@@ -406,7 +466,7 @@ CycleReport LocalPlanner::planCycle(int64_t utime, const DistanceField* map_fiel
 
   std::string dropped;
   if (intermediate_) {
-    switch (track(*intermediate_, intermediate_waypoint_, intermediate_watchdog_, field, report)) {
+    switch (track(*intermediate_, intermediate_progress_, field, report)) {
       case Tracked::kCommitted:
         return report;
       case Tracked::kReached:
@@ -418,7 +478,7 @@ CycleReport LocalPlanner::planCycle(int64_t utime, const DistanceField* map_fiel
     }
     intermediate_.reset();
   }
-  switch (track(*mission_, mission_waypoint_, mission_watchdog_, field, report)) {
+  switch (track(*mission_, mission_progress_, field, report)) {
     case Tracked::kCommitted:
       return report;
     case Tracked::kReached:
@@ -465,9 +525,8 @@ CycleReport LocalPlanner::answerCycle(const std::optional<Goal>& goal, const std
   if (map_field == nullptr) return give_up("no map");
   intermediate_ = *goal;
   intermediate_->from_explorer = true;
-  intermediate_waypoint_ = 0;
-  switch (track(*intermediate_, intermediate_waypoint_, intermediate_watchdog_, fenced(*map_field),
-                report)) {
+  intermediate_progress_ = {};
+  switch (track(*intermediate_, intermediate_progress_, fenced(*map_field), report)) {
     case Tracked::kCommitted:
       return report;
     case Tracked::kReached:

@@ -465,6 +465,107 @@ TEST(LocalPlanner, TracksWaypointsInOrder) {
   EXPECT_GT(toward_w1, 0);
 }
 
+// The distance from p to the polyline through `points` [m].
+double distanceToPolyline(const Eigen::Vector3d& p, const std::vector<Eigen::Vector3d>& points) {
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i + 1 < points.size(); ++i) {
+    const Eigen::Vector3d a = points[i], ab = points[i + 1] - a;
+    const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+    best = std::min(best, (a + t * ab - p).norm());
+  }
+  return best;
+}
+
+TEST(LocalPlanner, TheCarrotFollowsAWaypointPathWithoutStoppingAtItsCorners) {
+  // A wall x in [2.5, 3.5] up to y = 1.5; the path goes around its end at y = 3, 1.5 m from it.
+  const DistanceField field = boxesField({boxFromCorners({2.5, -50, -50}, {3.5, 1.5, 150})});
+  const std::vector<Eigen::Vector3d> path = {Eigen::Vector3d(0, 3, 1.5), Eigen::Vector3d(6, 3, 1.5),
+                                             Eigen::Vector3d(6, 0, 1.5)};
+  Goal goal = goalAt(6, path);
+  goal.yaws = {M_PI / 2, 0, -M_PI / 2};
+  std::vector<Eigen::Vector3d> whole_path = {kStart};
+  whole_path.insert(whole_path.end(), path.begin(), path.end());
+
+  LocalPlannerOptions options;
+  options.carrot = true;
+  Pilot pilot(options);
+  ASSERT_FALSE(pilot.planner.setMissionGoal(goal));
+  const double tolerance = options.goal_tolerance;
+  const double clearance = options.loco.robot_radius + options.loco.clearance_margin;
+  bool reached = false, cut_a_corner = false;
+  long passed = 0;  // the waypoint tracked in the last cycle
+  int carrots = 0, cycles = 0;
+  std::optional<Eigen::Vector3d> last_carrot;
+  for (; cycles < 40 && !reached; ++cycles) {
+    const VehicleState before = pilot.estimate();
+    const CycleReport report = pilot.cycle(field);
+    SCOPED_TRACE("cycle " + std::to_string(report.cycle));
+    if (report.state == CycleState::kGoalReached) {
+      reached = true;
+      EXPECT_LE((before.position - path.back()).norm(), tolerance);
+      // Only the last waypoint's yaw must be reached.
+      EXPECT_LE(std::abs(std::remainder(before.yaw + M_PI / 2, 2 * M_PI)), options.yaw_tolerance);
+      break;
+    }
+    ASSERT_EQ(report.state, CycleState::kPlanned) << report.reason;
+    // Only the last waypoint is a place to stop and turn.
+    if (report.reason.starts_with("looking")) {
+      EXPECT_EQ(report.goal, path.back());
+      continue;
+    }
+    ASSERT_TRUE(report.trajectory);
+    const auto index = std::find(path.begin(), path.end(), report.goal) - path.begin();
+    ASSERT_LT(index, 3);
+    ASSERT_GE(index, passed);
+    passed = index;
+    if (!report.carrot) continue;  // the soft goal toward the waypoint: it found no carrot
+    ++carrots;
+    // Every plan ends at rest on the path (or on the way from the reference to the last carrot
+    // or to the waypoint), at a point a straight free segment reaches, within the horizon.
+    const Eigen::Vector3d end = report.trajectory->evaluate(report.trajectory->duration());
+    EXPECT_NEAR((end - report.horizon_goal).norm(), 0, 1e-3);
+    double off_path =
+        std::min(distanceToPolyline(report.horizon_goal, whole_path),
+                 distanceToPolyline(report.horizon_goal, {report.start.position, report.goal}));
+    if (last_carrot) {
+      off_path = std::min(
+          off_path, distanceToPolyline(report.horizon_goal, {report.start.position, *last_carrot}));
+    }
+    EXPECT_LT(off_path, 1e-9);
+    last_carrot = report.horizon_goal;
+    EXPECT_LE((report.horizon_goal - report.start.position).norm(),
+              options.goal_finder.horizon + 1e-9);
+    for (double s = 0; s <= 1; s += 0.01) {
+      const EsdfSample sample =
+          field(report.start.position + s * (report.horizon_goal - report.start.position));
+      // Checked every 0.1 m: between samples it may graze the wall's edge by a few cm.
+      EXPECT_GE(sample.distance, clearance - 0.05) << "s = " << s;
+    }
+    // It flies facing the yaw of the waypoint its carrot leads to.
+    ASSERT_TRUE(report.yaw);
+    EXPECT_EQ(*report.yaw, goal.yaws[static_cast<size_t>(index)]);
+    // Toward a later waypoint while still far from an earlier one: the corner is cut.
+    for (long i = 0; i < index; ++i) {
+      if ((report.start.position - path[static_cast<size_t>(i)]).norm() > 2 * tolerance) {
+        cut_a_corner = true;
+      }
+    }
+  }
+  EXPECT_TRUE(reached);
+  EXPECT_TRUE(cut_a_corner);
+  EXPECT_GT(carrots, 5);
+
+  // The paper's planner flies the same path waypoint by waypoint, through each corner, and takes
+  // longer.
+  Pilot paper;
+  ASSERT_FALSE(paper.planner.setMissionGoal(goal));
+  int paper_cycles = 0;
+  for (; paper_cycles < 80; ++paper_cycles) {
+    if (paper.cycle(field).state == CycleState::kGoalReached) break;
+  }
+  EXPECT_LT(cycles + 3, paper_cycles);
+}
+
 TEST(LocalPlanner, AWaypointWithAYawIsFlownFacingItAndReachedOnlyFacingIt) {
   Pilot pilot;
   pilot.yaw_rate = 0.1;  // it turns slower than it flies: it arrives before it faces the yaw

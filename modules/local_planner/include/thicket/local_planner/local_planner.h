@@ -84,6 +84,8 @@ struct CycleReport {
   bool goal_from_explorer = false;
   Eigen::Vector3d goal = Eigen::Vector3d::Zero();
   Eigen::Vector3d horizon_goal = Eigen::Vector3d::Zero();
+  /// The plan ends at the carrot on the goal's path (LocalPlannerOptions::carrot), fixed.
+  bool carrot = false;
   TrajectoryState start;   ///< the reference the cycle planned from
   double vehicle_yaw = 0;  ///< the estimate's yaw at the cycle [rad]
   /// Why the rest of the committed trajectory failed the re-check and which stop replaced it;
@@ -128,6 +130,13 @@ struct LocalPlannerOptions {
   /// 0 turns it off (the paper's planner).
   int stall_cycles = 0;
   double stall_distance = 0.3;  ///< [m]
+  /// Follow a goal's waypoints as a path (off: the paper's planner, a soft goal toward each
+  /// waypoint in turn). Each cycle first tries the carrot: the farthest point of the polyline
+  /// (the reference, then the waypoints left) within the horizon that a straight segment from the
+  /// reference reaches with the acceptance clearance, as a fixed end at rest; the soft goal toward
+  /// the current waypoint is the fallback. Waypoints before the carrot are passed, and only the
+  /// last one's yaw must be reached (the others' yaws are flown toward them).
+  bool carrot = false;
 
   void declare(Params& p);
 };
@@ -208,10 +217,28 @@ class LocalPlanner {
   std::optional<std::string> optimizeToward(const SplineEnds& ends, bool free_end,
                                             const Eigen::Vector3d& target,
                                             const DistanceField& field, CycleReport& report);
-  // Plans toward the current waypoint of the tracked goal on the (fenced) field; fills the report,
-  // commits on success.
-  bool planToward(const Goal& goal, size_t waypoint, const DistanceField& field,
+  // How far a goal is followed: its current waypoint, the last carrot committed toward it (on
+  // the path; the path continues from there), and the stall watchdog.
+  struct Progress {
+    size_t waypoint = 0;
+    std::optional<Eigen::Vector3d> carrot;
+    Watchdog watchdog;
+  };
+  // Plans toward the current waypoint of the tracked goal on the (fenced) field (the carrot first,
+  // when on, which may pass waypoints); fills the report, commits on success.
+  bool planToward(const Goal& goal, Progress& progress, const DistanceField& field,
                   CycleReport& report);
+  // The carrot (LocalPlannerOptions::carrot) on `goal`'s path from `start` (through the last
+  // carrot, then the waypoints left), and the waypoint its segment of the path leads to.
+  struct Carrot {
+    Eigen::Vector3d position;
+    size_t waypoint;
+  };
+  std::optional<Carrot> carrot(const Goal& goal, const Progress& progress,
+                               const Eigen::Vector3d& start, const DistanceField& field) const;
+  // Whether waypoint `i` of `goal` must be reached at its yaw (it has one, and it is the last or
+  // waypoints are not followed as a path).
+  bool yawToReach(const Goal& goal, size_t i) const;
   // plan() and answer() before reportStop().
   CycleReport planCycle(int64_t utime, const DistanceField* field, int64_t map_utime,
                         int64_t map_revision, const std::optional<VehicleState>& estimate);
@@ -231,7 +258,7 @@ class LocalPlanner {
   bool look(const Goal& goal, size_t waypoint, const DistanceField& field, CycleReport& report);
   enum class Tracked { kReached, kCommitted, kFailed };
   // One cycle toward a goal: advances its waypoints, looks, checks the watchdog and plans.
-  Tracked track(const Goal& goal, size_t& waypoint, Watchdog& watchdog, const DistanceField& field,
+  Tracked track(const Goal& goal, Progress& progress, const DistanceField& field,
                 CycleReport& report);
 
   LocalPlannerOptions options_;
@@ -239,13 +266,12 @@ class LocalPlanner {
   Loco loco_;
   GoalFinder goal_finder_;
   std::optional<Goal> mission_;
-  size_t mission_waypoint_ = 0;
+  Progress mission_progress_;
   std::optional<Goal> intermediate_;
-  size_t intermediate_waypoint_ = 0;
+  Progress intermediate_progress_;
   std::optional<PolynomialTrajectory> committed_;
   std::optional<double> committed_yaw_;
   int64_t committed_cycle_ = -1;
-  Watchdog mission_watchdog_, intermediate_watchdog_;
   int64_t cycle_ = 0;
   // The stuck cycle waiting for the explorer: its report so far.
   std::optional<CycleReport> waiting_;
