@@ -61,6 +61,11 @@ const Method kMethods[] = {
     {"rrt_star_conservative", "rrt_star_conservative", kPaperExplorer, kPaperPlanner},
     {"nbvp", "nbvp", kPaperExplorer, kPaperPlanner},
     {"local_exploration", "local_exploration", kPaperExplorer, kPaperPlanner},
+    // Beyond the paper: frontier viewpoints along verified paths with a memory, flown facing
+    // their yaws along the path (the carrot), a look around at each new stuck place, and the stall
+    // watchdog.
+    {"frontier_memory", "frontier_memory", "{fixed_yaw: true, look_around: {enabled: true}}",
+     "{carrot: true, stall_cycles: 4}"},
     // Ablation: the paper's method, its candidates flown facing their yaw, a look around at each
     // new stuck place, and the stall watchdog.
     {"local_exploration_look", "local_exploration",

@@ -38,6 +38,30 @@ void ExplorerOptions::declare(Params& p) {
           "answer the first stuck request at each place with a turn in place (needs fixed_yaw)");
   p.group("rrt_star", rrt_star, "the RRT* baselines (rrt_star_optimistic, rrt_star_conservative)");
   p.group("nbvp", nbvp, "the next-best-view baseline");
+  p.group("frontier_memory", frontier_memory,
+          "frontier viewpoints along verified paths, with a memory of places and failed targets");
+}
+
+void FrontierMemoryOptions::declare(Params& p) {
+  p("radius", radius, "frontiers and paths in a box of this half-width [m]", Range::positive());
+  p("grid", grid, "the path search's cell [m]", Range::between(0.05, 5));
+  p("cluster_size", cluster_size, "frontier voxels are clustered in cells of this [m]",
+    Range::positive());
+  p("min_frontier", min_frontier, "a cluster has at least this many frontier voxels",
+    Range::between(1, 100000));
+  p("layers", layers, "search and look up to `climb` above and below the start; false: its height");
+  p("climb", climb, "... that far [m]", Range::atLeast(0));
+  p("memory", memory, "remember places, failed targets and the committed target");
+  p("w_goal", w_goal, "weight of the cluster's distance to the goal", Range::atLeast(0));
+  p("w_climb", w_climb, "extra path cost per metre climbed", Range::atLeast(0));
+  p("w_altitude", w_altitude, "weight of the viewpoint's height difference to the goal",
+    Range::atLeast(0));
+  p("w_size", w_size, "weight of the cluster's size", Range::atLeast(0));
+  p("hysteresis", hysteresis, "the committed target stands unless another scores this better",
+    Range::atLeast(0));
+  p("tabu_attempts", tabu_attempts, "a target asked again from its request's place this often ...",
+    Range::between(1, 1000));
+  p("tabu_radius", tabu_radius, "... is not proposed again within this [m]", Range::positive());
 }
 
 void LookAroundOptions::declare(Params& p) {
@@ -237,6 +261,16 @@ bool observedFree(const ExplorerOptions& o, const MapView& maps, const Eigen::Ve
 
 namespace {
 
+bool frontierMemoryOptionsValid(const FrontierMemoryOptions& f) {
+  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
+  const auto nonNegative = [](double x) { return std::isfinite(x) && x >= 0; };
+  return positive(f.radius) && f.grid >= 0.05 && f.grid <= 5 && positive(f.cluster_size) &&
+         f.min_frontier >= 1 && nonNegative(f.climb) && nonNegative(f.w_goal) &&
+         nonNegative(f.w_climb) && nonNegative(f.w_altitude) && nonNegative(f.w_size) &&
+         nonNegative(f.hysteresis) && f.tabu_attempts >= 1 && positive(f.tabu_radius) &&
+         f.radius / f.grid <= 200;
+}
+
 std::unique_ptr<GoalSelector> makeStrategy(const ExplorerOptions& o) {
   if (o.strategy == "none") return std::make_unique<NoneSelector>();
   if (o.strategy == "random") return std::make_unique<RandomSelector>(o);
@@ -244,15 +278,20 @@ std::unique_ptr<GoalSelector> makeStrategy(const ExplorerOptions& o) {
   if (o.strategy == "rrt_star_optimistic") return detail::makeRrtStar(o, /*optimistic=*/true);
   if (o.strategy == "rrt_star_conservative") return detail::makeRrtStar(o, /*optimistic=*/false);
   if (o.strategy == "nbvp") return detail::makeNbvp(o);
+  if (o.strategy == "frontier_memory") return detail::makeFrontierMemory(o);
   throw std::invalid_argument("explorer: unknown strategy '" + o.strategy + "'");
 }
 
 }  // namespace
 
 const std::vector<std::string>& strategyNames() {
-  static const std::vector<std::string> names = {
-      "none", "random",           "rrt_star_optimistic", "rrt_star_conservative",
-      "nbvp", "local_exploration"};
+  static const std::vector<std::string> names = {"none",
+                                                 "random",
+                                                 "rrt_star_optimistic",
+                                                 "rrt_star_conservative",
+                                                 "nbvp",
+                                                 "local_exploration",
+                                                 "frontier_memory"};
   return names;
 }
 
@@ -270,7 +309,8 @@ std::unique_ptr<GoalSelector> makeGoalSelector(const ExplorerOptions& o) {
       !positive(o.nbvp.range) || !(o.nbvp.lambda >= 0) || !std::isfinite(o.nbvp.lambda) ||
       !(o.nbvp.zero_gain >= 0) || !std::isfinite(o.nbvp.zero_gain) ||
       !positive(o.nbvp.check_step) || !positive(o.look_around.radius) ||
-      o.look_around.headings < 1 || !(o.look_around.min_gain >= 0 && o.look_around.min_gain <= 1)) {
+      o.look_around.headings < 1 || !(o.look_around.min_gain >= 0 && o.look_around.min_gain <= 1) ||
+      !frontierMemoryOptionsValid(o.frontier_memory)) {
     throw std::invalid_argument("explorer: an option is out of range (see ExplorerOptions)");
   }
   if (o.look_around.enabled && !o.fixed_yaw) {

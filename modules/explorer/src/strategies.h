@@ -32,6 +32,8 @@ class GainCache {
 std::unique_ptr<GoalSelector> makeRrtStar(const ExplorerOptions& options, bool optimistic);
 /// nbvp; nbvp.cc.
 std::unique_ptr<GoalSelector> makeNbvp(const ExplorerOptions& options);
+/// frontier_memory; frontier_memory.cc.
+std::unique_ptr<GoalSelector> makeFrontierMemory(const ExplorerOptions& options);
 
 /// `strategy` behind a look-around (look_around.cc): the first stuck request at each place is
 /// answered with a turn in place.

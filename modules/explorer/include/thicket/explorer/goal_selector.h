@@ -19,6 +19,10 @@
 //                      sampled in observed free space within r of the start, each facing away from
 //                      the start, scored R = w_e l + w_g (d_g - ||g - x||) / d_g with l the unknown
 //                      fraction of its view (every s-th frustum voxel) and d_g = ||g - x_s|| + r
+//   frontier_memory    beyond the paper: the goal along a verified path when it is near and
+//                      reachable, else the best frontier viewpoint (facing its cluster) along a
+//                      verified path, else back home to a place with frontiers; it remembers the
+//                      places flown and the targets that failed (frontier_memory.cc)
 //
 // look_around (any strategy, with fixed_yaw) answers the first stuck request at each place with a
 // turn in place toward the heading that sees the most unknown space, before the strategy is asked.
@@ -100,6 +104,27 @@ struct NbvpOptions {
   void declare(Params& p);
 };
 
+/// frontier_memory (frontier_memory.cc): frontier viewpoints reached along verified paths, with a
+/// memory of the places flown and of the targets that failed.
+struct FrontierMemoryOptions {
+  double radius = 6.0;        ///< frontiers and paths in a box of this half-width [m]
+  double grid = 0.4;          ///< the path search's cell [m]
+  double cluster_size = 1.0;  ///< frontier voxels are clustered in cells of this [m]
+  int min_frontier = 8;       ///< a cluster has at least this many frontier voxels
+  bool layers = true;         ///< search and look up to `climb` above and below the start
+  double climb = 3.0;         ///< [m]
+  bool memory = true;         ///< remember places, failed targets and the committed one
+  double w_goal = 1.0;        ///< weight of the cluster's distance to the goal
+  double w_climb = 1.0;       ///< extra cost per metre climbed
+  double w_altitude = 0.3;    ///< weight of the viewpoint's height difference to the goal
+  double w_size = 1.0;        ///< weight of the cluster's size
+  double hysteresis = 1.0;    ///< the committed target stands unless another scores this better
+  int tabu_attempts = 2;      ///< a target asked again from its request's place this often ...
+  double tabu_radius = 1.5;   ///< ... is not proposed again within this [m]
+
+  void declare(Params& p);
+};
+
 struct ExplorerOptions {
   /// One of strategyNames().
   std::string strategy = "local_exploration";
@@ -127,6 +152,7 @@ struct ExplorerOptions {
   LookAroundOptions look_around;
   RrtStarOptions rrt_star;
   NbvpOptions nbvp;
+  FrontierMemoryOptions frontier_memory;
 
   void declare(Params& p);
 };

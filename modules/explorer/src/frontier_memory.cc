@@ -1,0 +1,458 @@
+// frontier_memory: frontier viewpoints reached along verified paths, with a memory of what failed
+// and of the places the vehicle has been (beyond the paper; issue "a vehicle that never stalls").
+//
+// Each request:
+// 1. Frontiers. Observed free TSDF voxels (weight >= gain.min_weight, distance > 0) with an
+//    unobserved 6-neighbour, in a box of half-width `radius` around the start and inside the
+//    altitude band, binned into cells of `cluster_size`: a cell holding at least `min_frontier`
+//    of them is a frontier cluster, at their centroid.
+// 2. Reachability. Dijkstra from the start over a grid of `grid` cells in the same box, a cell
+//    being free when its ESDF voxel is observed with at least min_clearance (near the start: the
+//    start's own clearance, so a vehicle inside the margin can leave), 26-connected, a step
+//    costing its length plus w_climb per metre climbed. The altitude band is the flight volume up
+//    to `climb` above the start (without `layers`: the start's grid layer only), so the search
+//    climbs over a bottleneck only when going around costs more.
+// 3. The answer, in order: the goal itself when it is in the box and reachable (a verified path
+//    to it); else the best viewpoint: for each cluster, cells on rings around it (1.5 and 2.5 m,
+//    8 bearings, at the cluster's height) that are reached and see the cluster (the segment to it
+//    crosses no surface), facing it; scored by path cost + w_goal * (the cluster's distance to the
+//    goal - the start's) + w_altitude * |height - the goal's| - w_size * (the cluster's share of
+//    min(size, 50) / 50); else the way home: the most recent remembered place, at least 2 m away,
+//    that had reachable clusters, along the places flown since. Never the global goal by itself.
+//    A path is the Dijkstra path shortened by straight free segments; each waypoint faces along
+//    its segment, the viewpoint faces its cluster.
+//
+// Memory (off without `memory`: every request is answered as if it were the first): the places
+// requests came from and whether they had clusters (the road home); the targets proposed and how
+// often the vehicle asked again from about where it asked before (a target tried `tabu_attempts`
+// times is not proposed again within tabu_radius); the committed target, kept while it is still
+// among the candidates unless another scores hysteresis better. As with nbvp, the memory a request
+// writes is read only by requests of later cycles, so the answers are deterministic given the
+// sequence of requests and maps.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <optional>
+#include <queue>
+#include <string>
+#include <tuple>
+#include <unordered_map>
+#include <vector>
+
+#include "strategies.h"
+#include "thicket/common/esdf_query.h"
+
+namespace thicket::explorer::detail {
+namespace {
+
+struct Cluster {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  int size = 0;
+};
+
+struct Target {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  int attempts = 0;
+};
+
+struct Place {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  bool frontiers = false;  // reachable clusters were seen from here
+};
+
+// What a request remembers for later ones.
+struct Memory {
+  std::vector<Place> places;    // request starts, oldest first
+  std::vector<Target> targets;  // proposed targets and their attempts
+  std::optional<Eigen::Vector3d> committed;
+  std::optional<Eigen::Vector3d> last_start;
+};
+
+// The search grid: a box of cells around the start.
+class Grid {
+ public:
+  Grid(const Eigen::Vector3d& origin, double cell, const Eigen::Vector3i& size)
+      : origin_(origin), cell_(cell), size_(size) {}
+  int count() const { return size_.prod(); }
+  bool inside(const Eigen::Vector3i& c) const {
+    return (c.array() >= 0).all() && (c.array() < size_.array()).all();
+  }
+  int index(const Eigen::Vector3i& c) const {
+    return c.x() + size_.x() * (c.y() + size_.y() * c.z());
+  }
+  Eigen::Vector3i cellOf(int i) const {
+    return {i % size_.x(), (i / size_.x()) % size_.y(), i / (size_.x() * size_.y())};
+  }
+  Eigen::Vector3i cellAt(const Eigen::Vector3d& p) const {
+    return ((p - origin_) / cell_).array().round().cast<int>();
+  }
+  Eigen::Vector3d center(const Eigen::Vector3i& c) const {
+    return origin_ + cell_ * c.cast<double>();
+  }
+  Eigen::Vector3d center(int i) const { return center(cellOf(i)); }
+
+ private:
+  Eigen::Vector3d origin_;
+  double cell_;
+  Eigen::Vector3i size_;
+};
+
+class FrontierMemorySelector final : public GoalSelector {
+ public:
+  explicit FrontierMemorySelector(const ExplorerOptions& options) : options_(options) {}
+  const char* name() const override { return "frontier_memory"; }
+
+  Proposal select(const ExplorationRequest& request, const MapView& maps) override {
+    // The memory of earlier cycles only (see the header).
+    if (request.cycle != written_cycle_) {
+      memory_ = written_;
+    }
+    Memory next = memory_;
+    Proposal proposal;
+    if (maps.tsdf == nullptr || maps.esdf == nullptr) {
+      proposal.reason = "no map";
+      proposal.map_missing = true;
+      return proposal;
+    }
+    const FrontierMemoryOptions& o = options_.frontier_memory;
+    if (o.memory) noteAttempt(next, request.start);
+
+    const std::optional<double> start_clearance =
+        treeClearance(options_, *maps.esdf, request.start);
+    const Grid grid = makeGrid(request.start);
+    const std::vector<double> cost =
+        start_clearance ? reach(grid, *maps.esdf, request.start, *start_clearance)
+                        : std::vector<double>(static_cast<size_t>(grid.count()),
+                                              std::numeric_limits<double>::infinity());
+    const auto costAt = [&](const Eigen::Vector3d& p) {
+      const Eigen::Vector3i c = grid.cellAt(p);
+      return grid.inside(c) ? cost[static_cast<size_t>(grid.index(c))]
+                            : std::numeric_limits<double>::infinity();
+    };
+
+    // A verified path to the goal.
+    if (std::isfinite(costAt(request.goal)) &&
+        esdfFree(options_, *maps.esdf, request.goal, options_.min_clearance)) {
+      proposal = pathProposal(grid, cost, *maps.esdf, request.start, request.goal, std::nullopt,
+                              *start_clearance);
+      proposal.reason = "a verified path to the goal";
+      remember(request, next, proposal, true);
+      return proposal;
+    }
+
+    const std::vector<Cluster> clusters = frontierClusters(*maps.tsdf, request.start);
+    struct Candidate {
+      Eigen::Vector3d viewpoint, centroid;
+      double score;
+    };
+    std::optional<Candidate> best, kept;
+    int reachable = 0;
+    const double start_to_goal = (request.goal - request.start).norm();
+    for (const Cluster& cluster : clusters) {
+      std::optional<Candidate> mine;
+      for (const double d : {1.5, 2.5}) {
+        for (int k = 0; k < 8; ++k) {
+          const double bearing = M_PI / 4 * k;
+          const Eigen::Vector3d v =
+              cluster.centroid + d * Eigen::Vector3d(std::cos(bearing), std::sin(bearing), 0);
+          if ((v - request.start).norm() < 1.0) continue;  // a look, not a flight
+          const double path = costAt(v);
+          if (!std::isfinite(path) || !observedFree(options_, maps, v)) continue;
+          if (!seesCluster(*maps.tsdf, v, cluster.centroid)) continue;
+          if (o.memory && tabu(next, v)) continue;
+          const double score =
+              path + o.w_goal * ((request.goal - cluster.centroid).norm() - start_to_goal) +
+              o.w_altitude * std::abs(v.z() - request.goal.z()) -
+              o.w_size * std::min(cluster.size, 50) / 50.0;
+          if (!mine || score < mine->score) mine = Candidate{v, cluster.centroid, score};
+        }
+      }
+      if (!mine) continue;
+      ++reachable;
+      if (!best || mine->score < best->score) best = mine;
+      if (o.memory && next.committed && (mine->viewpoint - *next.committed).norm() < 1.0) {
+        kept = mine;
+      }
+    }
+    if (best) {
+      // Hysteresis: the committed target stands unless another is clearly better.
+      const Candidate chosen = kept && kept->score <= best->score + o.hysteresis ? *kept : *best;
+      const Eigen::Vector3d look = chosen.centroid - chosen.viewpoint;
+      proposal = pathProposal(grid, cost, *maps.esdf, request.start, chosen.viewpoint,
+                              std::atan2(look.y(), look.x()), *start_clearance);
+      proposal.score = chosen.score;
+      char text[200];
+      std::snprintf(text, sizeof(text),
+                    "viewpoint (%.1f, %.1f, %.1f) of the best of %d reachable frontier clusters "
+                    "(%zu seen), score %.2f%s",
+                    chosen.viewpoint.x(), chosen.viewpoint.y(), chosen.viewpoint.z(), reachable,
+                    clusters.size(), chosen.score,
+                    kept && chosen.viewpoint == kept->viewpoint ? ", kept" : "");
+      proposal.reason = text;
+      remember(request, next, proposal, true);
+      return proposal;
+    }
+
+    // The way home: back along the places flown since the last one with frontiers.
+    if (o.memory) {
+      for (size_t i = memory_.places.size(); i-- > 0;) {
+        const Place& place = memory_.places[i];
+        if (!place.frontiers || (place.position - request.start).norm() < 2.0 ||
+            tabu(next, place.position)) {
+          continue;
+        }
+        proposal.found = true;
+        Eigen::Vector3d from = request.start;
+        for (size_t j = memory_.places.size(); j-- > i;) {
+          const Eigen::Vector3d& p = memory_.places[j].position;
+          if ((p - from).norm() < 0.5) continue;
+          proposal.waypoints.push_back(p);
+          proposal.yaws.push_back(std::atan2(p.y() - from.y(), p.x() - from.x()));
+          from = p;
+        }
+        char text[160];
+        std::snprintf(text, sizeof(text),
+                      "no reachable frontier here (%zu clusters seen): home to (%.1f, %.1f, %.1f) "
+                      "over %zu remembered places",
+                      clusters.size(), place.position.x(), place.position.y(), place.position.z(),
+                      proposal.waypoints.size());
+        proposal.reason = text;
+        remember(request, next, proposal, false);
+        return proposal;
+      }
+    }
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  "no reachable frontier cluster (%zu seen) and no place to go back to%s",
+                  clusters.size(), start_clearance ? "" : " (the start has too little clearance)");
+    proposal.reason = text;
+    remember(request, next, proposal, false);
+    return proposal;
+  }
+
+ private:
+  // The request came from about where the previous one did: its target was not reached.
+  void noteAttempt(Memory& next, const Eigen::Vector3d& start) const {
+    if (!next.last_start || !next.committed) return;
+    if ((start - *next.last_start).norm() > options_.frontier_memory.tabu_radius) return;
+    for (Target& t : next.targets) {
+      if ((t.position - *next.committed).norm() < 1e-9) ++t.attempts;
+    }
+  }
+
+  bool tabu(const Memory& memory, const Eigen::Vector3d& p) const {
+    const FrontierMemoryOptions& o = options_.frontier_memory;
+    for (const Target& t : memory.targets) {
+      if (t.attempts >= o.tabu_attempts && (t.position - p).norm() < o.tabu_radius) return true;
+    }
+    return false;
+  }
+
+  void remember(const ExplorationRequest& request, Memory& next, const Proposal& proposal,
+                bool frontiers) {
+    if (options_.frontier_memory.memory) {
+      next.places.push_back(Place{request.start, frontiers});
+      next.last_start = request.start;
+      next.committed.reset();
+      if (proposal.found) {
+        const Eigen::Vector3d& target = proposal.waypoints.back();
+        next.committed = target;
+        const bool known =
+            std::any_of(next.targets.begin(), next.targets.end(),
+                        [&](const Target& t) { return (t.position - target).norm() < 1e-9; });
+        if (!known) next.targets.push_back(Target{target, 0});
+      }
+    }
+    written_ = next;
+    written_cycle_ = request.cycle;
+  }
+
+  Grid makeGrid(const Eigen::Vector3d& start) const {
+    const FrontierMemoryOptions& o = options_.frontier_memory;
+    const double low =
+        o.layers ? std::max(options_.flight_volume_min.z(), start.z() - o.climb) : start.z();
+    const double high =
+        o.layers ? std::min(options_.flight_volume_max.z(), start.z() + o.climb) : start.z();
+    // Cells are aligned on the start, so the start is a cell centre.
+    const int below = static_cast<int>(std::floor((start.z() - low) / o.grid + 1e-9));
+    const int above = static_cast<int>(std::floor((high - start.z()) / o.grid + 1e-9));
+    const int half = static_cast<int>(std::ceil(o.radius / o.grid));
+    const Eigen::Vector3d origin = start - o.grid * Eigen::Vector3d(half, half, below);
+    return Grid(origin, o.grid, Eigen::Vector3i(2 * half + 1, 2 * half + 1, below + above + 1));
+  }
+
+  // Path costs from the start to every grid cell (infinity where unreached).
+  std::vector<double> reach(const Grid& grid, const EsdfLayer& esdf, const Eigen::Vector3d& start,
+                            double start_clearance) const {
+    const FrontierMemoryOptions& o = options_.frontier_memory;
+    const double inf = std::numeric_limits<double>::infinity();
+    std::vector<double> cost(static_cast<size_t>(grid.count()), inf);
+    std::vector<signed char> free(static_cast<size_t>(grid.count()), -1);  // -1: not yet tested
+    const auto isFree = [&](int i) {
+      signed char& f = free[static_cast<size_t>(i)];
+      if (f < 0) {
+        const Eigen::Vector3d p = grid.center(i);
+        const double needed = (p - start).norm() < 1.0 ? start_clearance : options_.min_clearance;
+        const EsdfVoxel* v = esdf.voxel(esdf.voxelIndex(p));
+        f = inFlightVolume(options_, p) && v != nullptr && v->observed && v->distance >= needed;
+      }
+      return f > 0;
+    };
+    using Entry = std::pair<double, int>;
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+    const int s = grid.index(grid.cellAt(start));
+    cost[static_cast<size_t>(s)] = 0;
+    free[static_cast<size_t>(s)] = 1;
+    open.push({0, s});
+    while (!open.empty()) {
+      const auto [c, i] = open.top();
+      open.pop();
+      if (c > cost[static_cast<size_t>(i)]) continue;
+      const Eigen::Vector3i cell = grid.cellOf(i);
+      for (int dz = -1; dz <= 1; ++dz) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            if (dx == 0 && dy == 0 && dz == 0) continue;
+            const Eigen::Vector3i n = cell + Eigen::Vector3i(dx, dy, dz);
+            if (!grid.inside(n)) continue;
+            const int j = grid.index(n);
+            if (!isFree(j)) continue;
+            const double step =
+                o.grid * std::sqrt(static_cast<double>(dx * dx + dy * dy + dz * dz));
+            const double next = c + step + o.w_climb * o.grid * std::max(0, dz);
+            if (next < cost[static_cast<size_t>(j)]) {
+              cost[static_cast<size_t>(j)] = next;
+              open.push({next, j});
+            }
+          }
+        }
+      }
+    }
+    return cost;
+  }
+
+  // The path to `target` down the cost field, shortened by straight free segments.
+  Proposal pathProposal(const Grid& grid, const std::vector<double>& cost, const EsdfLayer& esdf,
+                        const Eigen::Vector3d& start, const Eigen::Vector3d& target,
+                        std::optional<double> final_yaw, double clearance) const {
+    std::vector<Eigen::Vector3d> cells = {target};
+    Eigen::Vector3i cell = grid.cellAt(target);
+    const Eigen::Vector3i s = grid.cellAt(start);
+    for (int guard = 0; cell != s && guard < grid.count(); ++guard) {
+      Eigen::Vector3i down = cell;
+      double lowest = cost[static_cast<size_t>(grid.index(cell))];
+      for (int dz = -1; dz <= 1; ++dz) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const Eigen::Vector3i n = cell + Eigen::Vector3i(dx, dy, dz);
+            if (grid.inside(n) && cost[static_cast<size_t>(grid.index(n))] < lowest) {
+              lowest = cost[static_cast<size_t>(grid.index(n))];
+              down = n;
+            }
+          }
+        }
+      }
+      if (down == cell) break;
+      cell = down;
+      cells.push_back(grid.center(cell));
+    }
+    std::reverse(cells.begin(), cells.end());
+    cells.front() = start;
+    // Shortcut: from each kept point, the farthest later one a straight free segment reaches.
+    const double step = 0.5 * esdf.voxelSize();
+    Proposal proposal;
+    proposal.found = true;
+    size_t i = 0;
+    while (i + 1 < cells.size()) {
+      size_t j = cells.size() - 1;
+      while (j > i + 1 && !esdfSegmentFree(options_, esdf, cells[i], cells[j], clearance, step))
+        --j;
+      const Eigen::Vector3d d = cells[j] - cells[i];
+      proposal.waypoints.push_back(cells[j]);
+      proposal.yaws.push_back(std::atan2(d.y(), d.x()));
+      i = j;
+    }
+    if (proposal.waypoints.empty()) {
+      proposal.waypoints.push_back(target);
+      proposal.yaws.push_back(0);
+    }
+    if (final_yaw) proposal.yaws.back() = *final_yaw;
+    return proposal;
+  }
+
+  // Frontier clusters in the box around the start and the altitude band.
+  std::vector<Cluster> frontierClusters(const TsdfLayer& tsdf, const Eigen::Vector3d& start) const {
+    const FrontierMemoryOptions& o = options_.frontier_memory;
+    const double min_weight = options_.gain.min_weight;
+    const double low = o.layers ? std::max(options_.flight_volume_min.z(), start.z() - o.climb)
+                                : start.z() - o.cluster_size;
+    const double high = o.layers ? std::min(options_.flight_volume_max.z(), start.z() + o.climb)
+                                 : start.z() + o.cluster_size;
+    const Eigen::Vector3d lo(start.x() - o.radius, start.y() - o.radius, low);
+    const Eigen::Vector3d hi(start.x() + o.radius, start.y() + o.radius, high);
+    const auto observed = [&](const VoxelIndex& v) {
+      const TsdfVoxel* voxel = tsdf.voxel(v);
+      return voxel != nullptr && voxel->weight >= min_weight;
+    };
+    std::map<std::tuple<int, int, int>, Cluster> cells;  // ordered: deterministic
+    const BlockIndex blo = tsdf.blockIndex(lo), bhi = tsdf.blockIndex(hi);
+    for (const BlockIndex& b : tsdf.blockIndices()) {
+      if ((b.array() < blo.array()).any() || (b.array() > bhi.array()).any()) continue;
+      const auto* block = tsdf.block(b);
+      for (int k = 0; k < kVoxelsPerBlock; ++k) {
+        const TsdfVoxel& voxel = block->voxels[static_cast<size_t>(k)];
+        if (!(voxel.weight >= min_weight) || voxel.distance <= 0) continue;
+        const VoxelIndex v = voxelOfBlock(b, k);
+        const Eigen::Vector3d p = tsdf.voxelCenter(v);
+        if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+        bool frontier = false;
+        for (int axis = 0; axis < 3 && !frontier; ++axis) {
+          for (const int sign : {-1, 1}) {
+            if (!observed(v + sign * VoxelIndex::Unit(axis))) {
+              frontier = true;
+              break;
+            }
+          }
+        }
+        if (!frontier) continue;
+        const Eigen::Vector3i c = (p / o.cluster_size).array().floor().cast<int>();
+        Cluster& cluster = cells[{c.x(), c.y(), c.z()}];
+        cluster.centroid += p;
+        ++cluster.size;
+      }
+    }
+    std::vector<Cluster> clusters;
+    for (auto& [key, cluster] : cells) {
+      if (cluster.size < o.min_frontier) continue;
+      cluster.centroid /= cluster.size;
+      clusters.push_back(cluster);
+    }
+    return clusters;
+  }
+
+  // The segment from the viewpoint to the cluster crosses no surface the TSDF saw.
+  static bool seesCluster(const TsdfLayer& tsdf, const Eigen::Vector3d& from,
+                          const Eigen::Vector3d& to) {
+    const double step = 0.5 * tsdf.voxelSize();
+    const int n = std::max(1, static_cast<int>(std::ceil((to - from).norm() / step)));
+    for (int k = 0; k < n; ++k) {
+      const TsdfVoxel* v = tsdf.voxel(tsdf.voxelIndex(from + (to - from) * (double(k) / n)));
+      if (v != nullptr && v->weight > 0 && v->distance <= 0) return false;
+    }
+    return true;
+  }
+
+  ExplorerOptions options_;
+  Memory memory_, written_;
+  int64_t written_cycle_ = std::numeric_limits<int64_t>::min();
+};
+
+}  // namespace
+
+std::unique_ptr<GoalSelector> makeFrontierMemory(const ExplorerOptions& options) {
+  return std::make_unique<FrontierMemorySelector>(options);
+}
+
+}  // namespace thicket::explorer::detail

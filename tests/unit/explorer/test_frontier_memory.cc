@@ -1,0 +1,178 @@
+// frontier_memory on hand-built maps: a verified path to a reachable goal (around a wall, over a
+// low one only with altitude layers), a frontier viewpoint facing its cluster when the goal is in
+// unknown space (never the goal itself), the tabu on targets asked for again from the same place,
+// the way home, determinism, and what it says without a map.
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "hand_maps.h"
+#include "thicket/common/esdf_query.h"
+
+namespace thicket::explorer {
+namespace {
+
+ExplorerOptions frontierOptions() {
+  ExplorerOptions o = optionsFor("frontier_memory");
+  o.fixed_yaw = true;
+  return o;
+}
+
+// Every segment of the proposal, from the start, keeps `clearance` in the ESDF (every 2 cm).
+void expectFreePath(const Proposal& p, const Eigen::Vector3d& start, const EsdfLayer& esdf,
+                    double clearance) {
+  Eigen::Vector3d from = start;
+  for (const Eigen::Vector3d& to : p.waypoints) {
+    const int n = std::max(1, static_cast<int>(std::ceil((to - from).norm() / 0.02)));
+    for (int k = 0; k <= n; ++k) {
+      const EsdfSample s = sampleEsdf(esdf, from + (to - from) * (static_cast<double>(k) / n));
+      ASSERT_TRUE(s.known);
+      // Cells are checked at their voxel's centre: between them the path may dip by a voxel.
+      EXPECT_GE(s.distance, clearance - kVoxel);
+    }
+    from = to;
+  }
+}
+
+// A wall x in [1.6, 2.4] for y < 1.5, everywhere in z: the way to x > 2.4 goes around its end.
+double wallWithAnEnd(const Eigen::Vector3d& p) {
+  const double dx = std::max({1.6 - p.x(), p.x() - 2.4, 0.0});
+  const double dy = std::max(p.y() - 1.5, 0.0);
+  return dx == 0 && dy == 0 ? -0.1 : std::hypot(dx, dy);
+}
+
+TEST(FrontierMemory, AReachableGoalIsProposedAlongAVerifiedPath) {
+  const HandMap map = observedBox({-4, -4, 0.4}, {8, 4.5, 2.6}, wallWithAnEnd);
+  const ExplorerOptions o = frontierOptions();
+  const auto selector = makeGoalSelector(o);
+  ExplorationRequest r = request(1);
+  r.goal = Eigen::Vector3d(5, 0, 1.5);
+  const Proposal p = selector->select(r, map.view());
+  ASSERT_TRUE(p.found) << p.reason;
+  EXPECT_EQ(p.waypoints.back(), r.goal);
+  EXPECT_EQ(p.yaws.size(), p.waypoints.size());
+  EXPECT_GE(p.waypoints.size(), 2u);  // not straight through the wall
+  expectFreePath(p, r.start, map.esdf, o.min_clearance);
+  EXPECT_NE(p.reason.find("path to the goal"), std::string::npos) << p.reason;
+}
+
+TEST(FrontierMemory, AGoalInUnknownSpaceGetsAFrontierViewpointNeverTheGoal) {
+  // Observed up to x = 4; the goal lies 20 m ahead in unknown space.
+  const HandMap map = observedBox({-4, -4, 0.4}, {4, 4, 2.6});
+  const ExplorerOptions o = frontierOptions();
+  const auto selector = makeGoalSelector(o);
+  const ExplorationRequest r = request(1);
+  const Proposal p = selector->select(r, map.view());
+  ASSERT_TRUE(p.found) << p.reason;
+  const Eigen::Vector3d v = p.waypoints.back();
+  EXPECT_GT((v - r.goal).norm(), 10);
+  const EsdfSample s = sampleEsdf(map.esdf, v);
+  ASSERT_TRUE(s.known);
+  EXPECT_GE(s.distance, o.min_clearance);
+  // Toward the goal's side of the box, facing the frontier there (+x, within 45 degrees).
+  EXPECT_GT(v.x(), 1.0);
+  EXPECT_LT(std::abs(p.yaws.back()), M_PI / 4 + 1e-9) << p.reason;
+  expectFreePath(p, r.start, map.esdf, o.min_clearance);
+}
+
+// A wall across everything up to z = 2.0, x in [1.6, 2.4]; observed up to z = 4.6.
+double lowWall(const Eigen::Vector3d& p) {
+  const double dx = std::max({1.6 - p.x(), p.x() - 2.4, 0.0});
+  const double dz = std::max(p.z() - 2.0, 0.0);
+  return dx == 0 && dz == 0 ? -0.1 : std::hypot(dx, dz);
+}
+
+TEST(FrontierMemory, ItClimbsOverALowWallOnlyWithAltitudeLayers) {
+  const HandMap map = observedBox({-4, -6, 0.4}, {8, 6, 4.6}, lowWall);
+  ExplorerOptions o = frontierOptions();
+  ExplorationRequest r = request(1);
+  r.goal = Eigen::Vector3d(5, 0, 1.5);
+  const Proposal over = makeGoalSelector(o)->select(r, map.view());
+  ASSERT_TRUE(over.found) << over.reason;
+  EXPECT_EQ(over.waypoints.back(), r.goal);
+  double highest = 0;
+  for (const Eigen::Vector3d& w : over.waypoints) highest = std::max(highest, w.z());
+  EXPECT_GE(highest, 2.0 + o.min_clearance - kVoxel);
+  expectFreePath(over, r.start, map.esdf, o.min_clearance);
+
+  o.frontier_memory.layers = false;  // at the start's height there is no way past it
+  const Proposal flat = makeGoalSelector(o)->select(r, map.view());
+  ASSERT_TRUE(flat.found) << flat.reason;  // a frontier on this side of the wall
+  EXPECT_NE(flat.waypoints.back(), r.goal);
+  for (const Eigen::Vector3d& w : flat.waypoints) {
+    EXPECT_NEAR(w.z(), r.start.z(), 1e-9);
+    EXPECT_LT(w.x(), 1.6);
+  }
+}
+
+TEST(FrontierMemory, ATargetAskedForAgainFromTheSamePlaceBecomesTabu) {
+  const HandMap map = observedBox({-4, -4, 0.4}, {4, 4, 2.6});
+  ExplorerOptions o = frontierOptions();
+  const auto selector = makeGoalSelector(o);
+  // The vehicle never gets anywhere: every request comes from the start.
+  std::vector<Eigen::Vector3d> targets;
+  for (int cycle = 1; cycle <= 8; ++cycle) {
+    const Proposal p = selector->select(request(cycle), map.view());
+    ASSERT_TRUE(p.found) << p.reason;
+    targets.push_back(p.waypoints.back());
+    // Asking again in the same cycle gives the same answer.
+    const Proposal again = selector->select(request(cycle), map.view());
+    EXPECT_EQ(again.waypoints, p.waypoints);
+  }
+  // Proposed once, then asked again twice (tabu_attempts) from the same place: a new target, away
+  // from it, and so on.
+  ASSERT_EQ(o.frontier_memory.tabu_attempts, 2);
+  EXPECT_EQ(targets[0], targets[1]);
+  EXPECT_GE((targets[2] - targets[0]).norm(), o.frontier_memory.tabu_radius);
+  EXPECT_EQ(targets[2], targets[3]);
+  EXPECT_GE((targets[4] - targets[0]).norm(), o.frontier_memory.tabu_radius);
+  EXPECT_GE((targets[4] - targets[2]).norm(), o.frontier_memory.tabu_radius);
+
+  // A fresh selector given the same sequence answers the same; without memory, always the first.
+  const auto replay = makeGoalSelector(o);
+  for (int cycle = 1; cycle <= 8; ++cycle) {
+    EXPECT_EQ(replay->select(request(cycle), map.view()).waypoints.back(),
+              targets[static_cast<size_t>(cycle - 1)]);
+  }
+  o.frontier_memory.memory = false;
+  const auto forgetful = makeGoalSelector(o);
+  for (int cycle = 1; cycle <= 8; ++cycle) {
+    EXPECT_EQ(forgetful->select(request(cycle), map.view()).waypoints.back(), targets[0]);
+  }
+}
+
+TEST(FrontierMemory, WithNoFrontierInReachItGoesBackToAPlaceThatHadOne) {
+  ExplorerOptions o = frontierOptions();
+  const auto selector = makeGoalSelector(o);
+  // First stuck at the start with frontiers around.
+  const HandMap open = observedBox({-4, -4, 0.4}, {4, 4, 2.6});
+  ASSERT_TRUE(selector->select(request(1), open.view()).found);
+  // Then at (3, 0) in a closed room: everything within reach observed, walls all around.
+  const auto room = [](const Eigen::Vector3d& p) {
+    return std::min({p.x() + 5, 12 - p.x(), p.y() + 8, 8 - p.y()});
+  };
+  const HandMap closed = observedBox({-12, -15, 0.4}, {19, 15, 2.6}, room);
+  ExplorationRequest r = request(2);
+  r.start = Eigen::Vector3d(3, 0, 1.5);
+  const Proposal home = selector->select(r, closed.view());
+  ASSERT_TRUE(home.found) << home.reason;
+  EXPECT_EQ(home.waypoints.back(), request(1).start);
+  EXPECT_NE(home.reason.find("home"), std::string::npos) << home.reason;
+  // Without memory there is nowhere to go.
+  o.frontier_memory.memory = false;
+  const Proposal none = makeGoalSelector(o)->select(r, closed.view());
+  EXPECT_FALSE(none.found);
+  EXPECT_NE(none.reason.find("no reachable frontier"), std::string::npos) << none.reason;
+}
+
+TEST(FrontierMemory, SaysWhenThereIsNoMap) {
+  const auto selector = makeGoalSelector(frontierOptions());
+  const Proposal p = selector->select(request(1), {});
+  EXPECT_FALSE(p.found);
+  EXPECT_TRUE(p.map_missing);
+}
+
+}  // namespace
+}  // namespace thicket::explorer
