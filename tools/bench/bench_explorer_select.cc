@@ -144,7 +144,7 @@ void BM_GoalSelection(benchmark::State& state) {
   state.counters["median_gain_evaluations"] = median(evaluations);
 }
 BENCHMARK(BM_GoalSelection)
-    ->DenseRange(1, 5)
+    ->DenseRange(1, static_cast<int>(explorer::strategyNames().size()) - 1)
     ->Iterations(3 * kTrials * kRequestsPerTrial)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);

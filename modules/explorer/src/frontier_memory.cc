@@ -150,7 +150,23 @@ class FrontierMemorySelector final : public GoalSelector {
     std::optional<Candidate> best, kept;
     int reachable = 0;
     const double start_to_goal = (request.goal - request.start).norm();
-    for (const Cluster& cluster : clusters) {
+    // A cluster's score is at least its bound (the path at least as long as the straight line to
+    // its farthest ring): clusters are scored in the order of their bounds, until no other can
+    // beat the best (or stand as the committed one).
+    const auto terms = [&](const Cluster& c, const Eigen::Vector3d& v) {
+      return o.w_goal * ((request.goal - c.centroid).norm() - start_to_goal) +
+             o.w_altitude * std::abs(v.z() - request.goal.z()) -
+             o.w_size * std::min(c.size, 50) / 50.0;
+    };
+    std::vector<std::pair<double, size_t>> order;
+    for (size_t i = 0; i < clusters.size(); ++i) {
+      const double straight = (clusters[i].centroid - request.start).norm() - 2.5 - o.grid;
+      order.push_back({std::max(0.0, straight) + terms(clusters[i], clusters[i].centroid), i});
+    }
+    std::sort(order.begin(), order.end());
+    for (const auto& [bound, index] : order) {
+      if (best && bound > best->score + o.hysteresis) break;
+      const Cluster& cluster = clusters[index];
       std::optional<Candidate> mine;
       for (const double d : {1.5, 2.5}) {
         for (int k = 0; k < 8; ++k) {
@@ -162,10 +178,7 @@ class FrontierMemorySelector final : public GoalSelector {
           if (!std::isfinite(path) || !observedFree(options_, maps, v)) continue;
           if (!seesCluster(*maps.tsdf, v, cluster.centroid)) continue;
           if (o.memory && tabu(next, v)) continue;
-          const double score =
-              path + o.w_goal * ((request.goal - cluster.centroid).norm() - start_to_goal) +
-              o.w_altitude * std::abs(v.z() - request.goal.z()) -
-              o.w_size * std::min(cluster.size, 50) / 50.0;
+          const double score = path + terms(cluster, v);
           if (!mine || score < mine->score) mine = Candidate{v, cluster.centroid, score};
         }
       }
@@ -186,7 +199,7 @@ class FrontierMemorySelector final : public GoalSelector {
       char text[200];
       std::snprintf(text, sizeof(text),
                     "viewpoint (%.1f, %.1f, %.1f) of the best of %d reachable frontier clusters "
-                    "(%zu seen), score %.2f%s",
+                    "scored (%zu seen), score %.2f%s",
                     chosen.viewpoint.x(), chosen.viewpoint.y(), chosen.viewpoint.z(), reachable,
                     clusters.size(), chosen.score,
                     kept && chosen.viewpoint == kept->viewpoint ? ", kept" : "");
@@ -269,12 +282,18 @@ class FrontierMemorySelector final : public GoalSelector {
     written_cycle_ = request.cycle;
   }
 
+  // The heights searched: `climb` above and below the start inside the flight volume; without
+  // layers the start's height (+- `flat`).
+  std::pair<double, double> band(const Eigen::Vector3d& start, double flat) const {
+    const FrontierMemoryOptions& o = options_.frontier_memory;
+    if (!o.layers) return {start.z() - flat, start.z() + flat};
+    return {std::max(options_.flight_volume_min.z(), start.z() - o.climb),
+            std::min(options_.flight_volume_max.z(), start.z() + o.climb)};
+  }
+
   Grid makeGrid(const Eigen::Vector3d& start) const {
     const FrontierMemoryOptions& o = options_.frontier_memory;
-    const double low =
-        o.layers ? std::max(options_.flight_volume_min.z(), start.z() - o.climb) : start.z();
-    const double high =
-        o.layers ? std::min(options_.flight_volume_max.z(), start.z() + o.climb) : start.z();
+    const auto [low, high] = band(start, 0.0);
     // Cells are aligned on the start, so the start is a cell centre.
     const int below = static_cast<int>(std::floor((start.z() - low) / o.grid + 1e-9));
     const int above = static_cast<int>(std::floor((high - start.z()) / o.grid + 1e-9));
@@ -386,10 +405,8 @@ class FrontierMemorySelector final : public GoalSelector {
   std::vector<Cluster> frontierClusters(const TsdfLayer& tsdf, const Eigen::Vector3d& start) const {
     const FrontierMemoryOptions& o = options_.frontier_memory;
     const double min_weight = options_.gain.min_weight;
-    const double low = o.layers ? std::max(options_.flight_volume_min.z(), start.z() - o.climb)
-                                : start.z() - o.cluster_size;
-    const double high = o.layers ? std::min(options_.flight_volume_max.z(), start.z() + o.climb)
-                                 : start.z() + o.cluster_size;
+    // Without layers: the frontiers a camera at the start's height sees ahead.
+    const auto [low, high] = band(start, o.cluster_size);
     const Eigen::Vector3d lo(start.x() - o.radius, start.y() - o.radius, low);
     const Eigen::Vector3d hi(start.x() + o.radius, start.y() + o.radius, high);
     const auto observed = [&](const VoxelIndex& v) {
@@ -397,20 +414,27 @@ class FrontierMemorySelector final : public GoalSelector {
       return voxel != nullptr && voxel->weight >= min_weight;
     };
     std::map<std::tuple<int, int, int>, Cluster> cells;  // ordered: deterministic
-    const BlockIndex blo = tsdf.blockIndex(lo), bhi = tsdf.blockIndex(hi);
-    for (const BlockIndex& b : tsdf.blockIndices()) {
-      if ((b.array() < blo.array()).any() || (b.array() > bhi.array()).any()) continue;
-      const auto* block = tsdf.block(b);
+    // The frontier voxels of one block, into their cells.
+    const auto scan = [&](const BlockIndex& b, const TsdfLayer::BlockType& block) {
       for (int k = 0; k < kVoxelsPerBlock; ++k) {
-        const TsdfVoxel& voxel = block->voxels[static_cast<size_t>(k)];
+        const TsdfVoxel& voxel = block.voxels[static_cast<size_t>(k)];
         if (!(voxel.weight >= min_weight) || voxel.distance <= 0) continue;
         const VoxelIndex v = voxelOfBlock(b, k);
         const Eigen::Vector3d p = tsdf.voxelCenter(v);
         if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+        // A neighbour inside the block is read from its array, the others looked up.
         bool frontier = false;
+        const int local[3] = {k & 15, (k >> 4) & 15, k >> 8};
+        const int stride[3] = {1, 16, 256};
         for (int axis = 0; axis < 3 && !frontier; ++axis) {
           for (const int sign : {-1, 1}) {
-            if (!observed(v + sign * VoxelIndex::Unit(axis))) {
+            const int l = local[axis] + sign;
+            const bool seen =
+                l >= 0 && l < 16
+                    ? block.voxels[static_cast<size_t>(k + sign * stride[axis])].weight >=
+                          min_weight
+                    : observed(v + sign * VoxelIndex::Unit(axis));
+            if (!seen) {
               frontier = true;
               break;
             }
@@ -421,6 +445,14 @@ class FrontierMemorySelector final : public GoalSelector {
         Cluster& cluster = cells[{c.x(), c.y(), c.z()}];
         cluster.centroid += p;
         ++cluster.size;
+      }
+    };
+    const BlockIndex blo = tsdf.blockIndex(lo), bhi = tsdf.blockIndex(hi);
+    for (BlockIndex b = blo; b.z() <= bhi.z(); ++b.z()) {
+      for (b.y() = blo.y(); b.y() <= bhi.y(); ++b.y()) {
+        for (b.x() = blo.x(); b.x() <= bhi.x(); ++b.x()) {
+          if (const auto* block = tsdf.block(b)) scan(b, *block);
+        }
       }
     }
     std::vector<Cluster> clusters;

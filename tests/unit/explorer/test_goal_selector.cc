@@ -185,6 +185,43 @@ TEST(GoalSelector, LookAroundTurnsOncePerPlaceTowardTheMostUnknownThenAsksTheStr
   EXPECT_FALSE(none.reason.starts_with("look around")) << none.reason;
 }
 
+TEST(GoalSelector, LookAroundLooksElsewhereWhenTheStrategyFindsNothing) {
+  ExplorerOptions o = optionsFor("none");
+  o.fixed_yaw = true;
+  o.look_around.enabled = true;
+  // Unknown space on the right (y < 0): several headings see some of it.
+  const HandMap map = observedBox({-8, 0, -4}, {8, 8, 7});
+  const auto selector = makeGoalSelector(o);
+  ExplorationRequest r = request(1);
+  r.start = Eigen::Vector3d(0, 1, 1.5);
+  std::vector<double> yaws;
+  for (int cycle = 1; cycle <= o.look_around.headings + 1; ++cycle) {
+    r.cycle = cycle;
+    const Proposal p = selector->select(r, map.view());
+    // The same cycle asked again is answered the same.
+    const Proposal again = selector->select(r, map.view());
+    EXPECT_EQ(again.yaws, p.yaws);
+    EXPECT_EQ(again.reason, p.reason);
+    if (!p.found) {
+      EXPECT_NE(p.reason.find("strategy none"), std::string::npos) << p.reason;
+      break;
+    }
+    ASSERT_EQ(p.waypoints, std::vector<Eigen::Vector3d>{r.start});
+    EXPECT_TRUE(p.reason.starts_with("look around")) << p.reason;
+    if (cycle > 1) {
+      EXPECT_NE(p.reason.find("strategy none"), std::string::npos) << p.reason;
+    }
+    // Never the same heading twice.
+    for (const double y : yaws) EXPECT_GT(std::abs(std::remainder(y - p.yaws[0], 2 * M_PI)), 0.1);
+    yaws.push_back(p.yaws[0]);
+  }
+  EXPECT_EQ(yaws.front(), -M_PI / 2);  // the most unknown first
+  // The headings facing the unknown half, not those facing the known one (+pi/2).
+  EXPECT_GE(yaws.size(), 3u);
+  EXPECT_LT(yaws.size(), static_cast<size_t>(o.look_around.headings));
+  for (const double y : yaws) EXPECT_GT(std::abs(std::remainder(y - M_PI / 2, 2 * M_PI)), 0.1);
+}
+
 TEST(GoalSelector, RefusesUnknownStrategiesAndBadOptions) {
   EXPECT_THROW(makeGoalSelector(optionsFor("teleport")), std::invalid_argument);
   ExplorerOptions o = optionsFor("random");
