@@ -60,6 +60,10 @@ void LocalPlannerOptions::declare(Params& p) {
     "many consecutive cycles on one waypoint; 0: off",
     Range::between(0, 1000));
   p("stall_distance", stall_distance, "... that distance [m]", Range::positive());
+  p("max_yaw_offset", max_yaw_offset,
+    "a trajectory is flown at its waypoint's yaw only if its direction is this close to it, else "
+    "facing its end, so the camera sees where it flies [rad]",
+    Range::between(0, M_PI));
   p("carrot", carrot,
     "follow a goal's waypoints as a path: end each trajectory, at rest, at the farthest point of "
     "the polyline within the horizon a free straight segment reaches (the soft goal as fallback); "
@@ -163,6 +167,17 @@ std::optional<double> waypointYaw(const Goal& goal, size_t waypoint) {
 }
 
 }  // namespace
+
+std::optional<double> LocalPlanner::flightYaw(const std::optional<double>& yaw,
+                                              const PolynomialTrajectory& trajectory) const {
+  if (!yaw) return std::nullopt;
+  const Eigen::Vector3d travel =
+      trajectory.evaluate(trajectory.duration()) - trajectory.evaluate(0);
+  if (travel.head<2>().norm() < options_.goal_tolerance) return yaw;
+  const double heading = std::atan2(travel.y(), travel.x());
+  if (std::abs(std::remainder(heading - *yaw, 2 * M_PI)) <= options_.max_yaw_offset) return yaw;
+  return heading;
+}
 
 bool LocalPlanner::yawToReach(const Goal& goal, size_t i) const {
   return !goal.yaws.empty() && (!options_.carrot || i + 1 == goal.waypoints.size());
@@ -408,7 +423,7 @@ bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const Distan
   }
   progress.waypoint = to;
   if (report.carrot) progress.carrot = c->position;
-  commit(*trajectory, waypointYaw(goal, to), report);
+  commit(*trajectory, flightYaw(waypointYaw(goal, to), *trajectory), report);
   report.state = CycleState::kPlanned;
   report.reason.clear();
   return true;

@@ -74,6 +74,10 @@ void LocoOptions::declare(Params& p) {
     "accepted samples need ESDF distance >= robot_radius + this: the mapper's certified "
     "overestimate plus the dip between 0.02 s samples [m]",
     Range::atLeast(0));
+  p("potential_buffer", potential_buffer,
+    "the collision potential rises this far beyond the accepted clearance, so an optimum pressed "
+    "against it passes the 0.02 s acceptance [m]",
+    Range::between(0, 1));
   p("v_max", v_max, "[m/s]", Range::positive());
   p("a_max", a_max, "[m/s^2]", Range::positive());
   p("segments", segments, "polynomial segments per trajectory", Range::between(1, 10));
@@ -129,8 +133,10 @@ LocoCost LocoProblem::cost(const Derivatives& free, Derivatives* gradient) const
   const int np = spline_.numFree();
   const double dt = options_.sample_dt;
   const double epsilon = options_.epsilon();
-  // The potential rises from the clearance acceptance asks for, so the optimum clears it.
-  const double clearance = options_.robot_radius + options_.clearance_margin;
+  // The potential rises from a little beyond the clearance acceptance asks for, so an optimum
+  // pressed against it (seen every sample_dt) still clears it at every acceptance sample.
+  const double clearance =
+      options_.robot_radius + options_.clearance_margin + options_.potential_buffer;
   for (const Sample& s : samples_) {
     const Eigen::RowVector3d p = s.position_row.head(nf) * fixed_ + s.position_row.tail(np) * free;
     const Eigen::RowVector3d v = s.velocity_row.head(nf) * fixed_ + s.velocity_row.tail(np) * free;
@@ -270,10 +276,10 @@ Loco::Loco(LocoOptions options) : options_(std::move(options)) {
   const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
   if (!finite_nonneg(o.w_d) || !finite_nonneg(o.w_c) || !finite_nonneg(o.w_g) ||
       !positive(o.robot_radius) || !positive(o.potential_margin) || !positive(o.sample_dt) ||
-      !finite_nonneg(o.clearance_margin) || !positive(o.v_max) || !positive(o.a_max) ||
-      o.segments < 1 || !positive(o.time_scale) || o.restarts < 0 ||
-      !finite_nonneg(o.restart_radius) || o.max_iterations < 1 || !positive(o.goal_smoothing) ||
-      !(o.function_tolerance > 0 && o.function_tolerance < 1)) {
+      !finite_nonneg(o.clearance_margin) || !finite_nonneg(o.potential_buffer) ||
+      !positive(o.v_max) || !positive(o.a_max) || o.segments < 1 || !positive(o.time_scale) ||
+      o.restarts < 0 || !finite_nonneg(o.restart_radius) || o.max_iterations < 1 ||
+      !positive(o.goal_smoothing) || !(o.function_tolerance > 0 && o.function_tolerance < 1)) {
     throw std::invalid_argument("Loco: an option is out of range (see LocoOptions)");
   }
 }

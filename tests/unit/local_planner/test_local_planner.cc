@@ -465,6 +465,19 @@ TEST(LocalPlanner, TracksWaypointsInOrder) {
   EXPECT_GT(toward_w1, 0);
 }
 
+// The yaw a trajectory toward a waypoint with `yaw` must be flown at: that yaw when the
+// trajectory's horizontal direction is within max_yaw_offset of it (or it barely moves), else its
+// direction, so the camera sees where the vehicle flies.
+double expectedFlightYaw(const PolynomialTrajectory& trajectory, double yaw,
+                         const LocalPlannerOptions& options) {
+  const Eigen::Vector3d travel =
+      trajectory.evaluate(trajectory.duration()) - trajectory.evaluate(0);
+  if (travel.head<2>().norm() < options.goal_tolerance) return yaw;
+  const double heading = std::atan2(travel.y(), travel.x());
+  return std::abs(std::remainder(heading - yaw, 2 * M_PI)) <= options.max_yaw_offset ? yaw
+                                                                                     : heading;
+}
+
 // The distance from p to the polyline through `points` [m].
 double distanceToPolyline(const Eigen::Vector3d& p, const std::vector<Eigen::Vector3d>& points) {
   double best = std::numeric_limits<double>::infinity();
@@ -541,9 +554,11 @@ TEST(LocalPlanner, TheCarrotFollowsAWaypointPathWithoutStoppingAtItsCorners) {
       // Checked every 0.1 m: between samples it may graze the wall's edge by a few cm.
       EXPECT_GE(sample.distance, clearance - 0.05) << "s = " << s;
     }
-    // It flies facing the yaw of the waypoint its carrot leads to.
+    // It flies facing the yaw of the waypoint its carrot leads to, unless that would not face
+    // where it flies.
     ASSERT_TRUE(report.yaw);
-    EXPECT_EQ(*report.yaw, goal.yaws[static_cast<size_t>(index)]);
+    EXPECT_EQ(*report.yaw, expectedFlightYaw(*report.trajectory,
+                                             goal.yaws[static_cast<size_t>(index)], options));
     // Toward a later waypoint while still far from an earlier one: the corner is cut.
     for (long i = 0; i < index; ++i) {
       if ((report.start.position - path[static_cast<size_t>(i)]).norm() > 2 * tolerance) {
@@ -590,9 +605,17 @@ TEST(LocalPlanner, AWaypointWithAYawIsFlownFacingItAndReachedOnlyFacingIt) {
       break;
     }
     ASSERT_EQ(report.state, CycleState::kPlanned) << report.reason;
-    // Every trajectory toward the waypoint is flown facing its yaw.
+    // Every trajectory toward the waypoint is flown facing where it goes (the yaw is 90 degrees
+    // off that), the looks at the waypoint facing its yaw.
     ASSERT_TRUE(report.yaw);
-    EXPECT_EQ(*report.yaw, M_PI / 2);
+    ASSERT_TRUE(report.trajectory);
+    EXPECT_EQ(*report.yaw,
+              expectedFlightYaw(*report.trajectory, M_PI / 2, pilot.planner.options()));
+    if (!report.reason.starts_with("looking")) {
+      EXPECT_LT(std::abs(*report.yaw), 0.1);
+    } else {
+      EXPECT_EQ(*report.yaw, M_PI / 2);
+    }
     EXPECT_EQ(pilot.planner.committedYaw(), report.yaw);
     if (report.reason.starts_with("looking")) {
       // At the waypoint but not yet facing the yaw: it stays there and turns.
@@ -606,6 +629,15 @@ TEST(LocalPlanner, AWaypointWithAYawIsFlownFacingItAndReachedOnlyFacingIt) {
   }
   EXPECT_TRUE(reached);
   EXPECT_GE(looks, 5);  // about 14 cycles of turning, fewer than 5 of them flying there
+
+  // A yaw near the direction of flight is flown all the way.
+  Goal near = goalAt(6, {Eigen::Vector3d(6, 3, 1.5)});
+  near.yaws = {0.5};  // the flight heads north-east, about 0.79 rad
+  ASSERT_FALSE(pilot.planner.setMissionGoal(near));
+  const CycleReport toward = pilot.cycle(field);
+  ASSERT_EQ(toward.state, CycleState::kPlanned) << toward.reason;
+  ASSERT_TRUE(toward.yaw);
+  EXPECT_EQ(*toward.yaw, 0.5);
 
   // A goal without yaws is flown along the velocity.
   ASSERT_FALSE(pilot.planner.setMissionGoal(goalAt(5, {Eigen::Vector3d(3, 3, 1.5)})));

