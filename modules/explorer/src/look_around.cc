@@ -53,7 +53,8 @@ class LookAroundSelector final : public GoalSelector {
   };
 
   // The heading, not yet looked at from this place, whose view holds the most visible unknown
-  // space; nothing when none reaches min_gain.
+  // space, weighted toward the goal (a third for the heading away from it); nothing when no view
+  // reaches min_gain.
   std::optional<Proposal> bestLook(const ExplorationRequest& request, const TsdfLayer& tsdf) {
     const ExplorationGain& gain = gains_.forVoxelSize(tsdf.voxelSize());
     const int headings = options_.look_around.headings;
@@ -63,17 +64,22 @@ class LookAroundSelector final : public GoalSelector {
                std::abs(std::remainder(*l.yaw - yaw, 2 * M_PI)) < M_PI / headings;
       });
     };
+    const Eigen::Vector3d to_goal = request.goal - request.start;
     Proposal look;
-    double best = -1, best_yaw = 0;
+    double best = -1, best_yaw = 0, best_unknown = 0;
     for (int k = 0; k < headings; ++k) {
       const double yaw = std::remainder(2 * M_PI * k / headings, 2 * M_PI);
       if (lookedAt(yaw)) continue;
       const Gain g = gain.visibleUnknownFraction(
           tsdf, ExplorationGain::cameraAt(request.start, yaw), options_.subsample);
       ++look.gain_evaluations;
-      if (g.unknown_fraction > best) best = g.unknown_fraction, best_yaw = yaw;
+      if (g.unknown_fraction < options_.look_around.min_gain) continue;
+      // Toward the goal counts fully, away from it a third.
+      const double value =
+          g.unknown_fraction * (2 + std::cos(yaw - std::atan2(to_goal.y(), to_goal.x()))) / 3;
+      if (value > best) best = value, best_yaw = yaw, best_unknown = g.unknown_fraction;
     }
-    if (best < options_.look_around.min_gain) return std::nullopt;
+    if (best < 0) return std::nullopt;
     look.found = true;
     look.waypoints = {request.start};
     look.yaws = {best_yaw};
@@ -81,7 +87,7 @@ class LookAroundSelector final : public GoalSelector {
     char text[120];
     std::snprintf(text, sizeof(text),
                   "look around: heading %.2f rad sees %.0f %% unknown (best of %d)", best_yaw,
-                  100 * best, static_cast<int>(look.gain_evaluations));
+                  100 * best_unknown, static_cast<int>(look.gain_evaluations));
     look.reason = text;
     return look;
   }

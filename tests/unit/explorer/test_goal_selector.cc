@@ -150,6 +150,7 @@ TEST(GoalSelector, LookAroundTurnsOncePerPlaceTowardTheMostUnknownThenAsksTheStr
   }());
   ExplorationRequest r = request(1);
   r.start = Eigen::Vector3d(0, 1, 1.5);
+  r.goal = Eigen::Vector3d(0, -20, 1.5);  // on the right too: the weight toward the goal is 1
 
   const Proposal look = selector->select(r, map.view());
   ASSERT_TRUE(look.found) << look.reason;
@@ -194,6 +195,7 @@ TEST(GoalSelector, LookAroundLooksElsewhereWhenTheStrategyFindsNothing) {
   const auto selector = makeGoalSelector(o);
   ExplorationRequest r = request(1);
   r.start = Eigen::Vector3d(0, 1, 1.5);
+  r.goal = Eigen::Vector3d(0, -20, 1.5);  // on the right too
   std::vector<double> yaws;
   for (int cycle = 1; cycle <= o.look_around.headings + 1; ++cycle) {
     r.cycle = cycle;

@@ -25,7 +25,8 @@
 //                      places flown and the targets that failed (frontier_memory.cc)
 //
 // look_around (any strategy, with fixed_yaw) answers the first stuck request at each place with a
-// turn in place toward the heading that sees the most unknown space, before the strategy is asked.
+// turn in place toward the heading that sees the most unknown space (weighted toward the goal),
+// before the strategy is asked, and looks elsewhere when the strategy then finds nothing there.
 #pragma once
 
 #include <cstdint>
@@ -68,8 +69,10 @@ struct Proposal {
 };
 
 /// Look-around: the first stuck request at each place is answered with a look, a waypoint at the
-/// start with the heading whose view has the most visible unknown space; later requests there go
-/// to the strategy. Needs fixed_yaw (a look without a yaw is no goal).
+/// start with the heading whose view has the most visible unknown space (times 1 toward the goal
+/// down to 1/3 away from it); later requests there go to the strategy, and when it finds nothing
+/// the best heading not yet looked at from there is looked at. Needs fixed_yaw (a look without a
+/// yaw is no goal).
 struct LookAroundOptions {
   bool enabled = false;
   double radius = 1.0;    ///< a place is where a look was answered, within this [m]
