@@ -13,14 +13,15 @@
 //    to `climb` above the start (without `layers`: the start's grid layer only), so the search
 //    climbs over a bottleneck only when going around costs more.
 // 3. The answer, in order: the goal itself when it is in the box and reachable (a verified path
-//    to it); else the best viewpoint: for each cluster, cells on rings around it (1.5 and 2.5 m,
-//    8 bearings, at the cluster's height) that are reached and see the cluster (the segment to it
-//    crosses no surface), facing it; scored by path cost + w_goal * (the cluster's distance to the
-//    goal - the start's) + w_altitude * |height - the goal's| - w_size * (the cluster's share of
-//    min(size, 50) / 50); else the way home: the most recent remembered place, at least 2 m away,
-//    that had reachable clusters, along the places flown since. Never the global goal by itself.
-//    A path is the Dijkstra path shortened by straight free segments; each waypoint faces along
-//    its segment, the viewpoint faces its cluster.
+//    to it); else the reached cell nearest the goal when it is `progress` nearer than the start
+//    (a verified path toward it); else the best viewpoint: for each cluster, cells on rings around
+//    it (1.5 and 2.5 m, 8 bearings, at the cluster's height) that are reached and see the cluster
+//    (the segment to it crosses no surface), facing it; scored by path cost + w_goal * (the
+//    cluster's distance to the goal - the start's) + w_altitude * |height - the goal's| - w_size *
+//    (the cluster's share of min(size, 50) / 50); else the way home: the most recent remembered
+//    place, at least 2 m away, that had reachable clusters, along the places flown since. Never the
+//    global goal by itself. A path is the Dijkstra path shortened by straight free segments; each
+//    waypoint faces along its segment, the viewpoint faces its cluster.
 //
 // Memory (off without `memory`: every request is answered as if it were the first): the places
 // requests came from and whether they had clusters (the road home); the targets proposed and how
@@ -141,6 +142,32 @@ class FrontierMemorySelector final : public GoalSelector {
       remember(request, next, proposal, true);
       return proposal;
     }
+    // Else a verified path toward it: to the reached cell nearest it, when that is `progress`
+    // nearer than the start and has not failed from here.
+    const double start_to_goal = (request.goal - request.start).norm();
+    int nearest = -1;
+    double nearest_to_goal = start_to_goal - o.progress;
+    for (int i = 0; i < grid.count(); ++i) {
+      if (!std::isfinite(cost[static_cast<size_t>(i)])) continue;
+      const double d = (grid.center(i) - request.goal).norm();
+      if (d < nearest_to_goal && !(o.memory && tabu(next, grid.center(i)))) {
+        nearest_to_goal = d;
+        nearest = i;
+      }
+    }
+    if (nearest >= 0) {
+      const Eigen::Vector3d target = grid.center(nearest);
+      const Eigen::Vector3d ahead = request.goal - target;
+      proposal = pathProposal(grid, cost, *maps.esdf, request.start, target,
+                              std::atan2(ahead.y(), ahead.x()), *start_clearance);
+      char text[160];
+      std::snprintf(text, sizeof(text),
+                    "a verified path toward the goal, to (%.1f, %.1f, %.1f), %.1f m nearer it",
+                    target.x(), target.y(), target.z(), start_to_goal - nearest_to_goal);
+      proposal.reason = text;
+      remember(request, next, proposal, true);
+      return proposal;
+    }
 
     const std::vector<Cluster> clusters = frontierClusters(*maps.tsdf, request.start);
     struct Candidate {
@@ -149,7 +176,6 @@ class FrontierMemorySelector final : public GoalSelector {
     };
     std::optional<Candidate> best, kept;
     int reachable = 0;
-    const double start_to_goal = (request.goal - request.start).norm();
     // A cluster's score is at least its bound (the path at least as long as the straight line to
     // its farthest ring): clusters are scored in the order of their bounds, until no other can
     // beat the best (or stand as the committed one).

@@ -52,6 +52,9 @@ void FrontierMemoryOptions::declare(Params& p) {
   p("layers", layers, "search and look up to `climb` above and below the start; false: its height");
   p("climb", climb, "... that far [m]", Range::atLeast(0));
   p("memory", memory, "remember places, failed targets and the committed target");
+  p("progress", progress,
+    "a verified path toward a goal out of reach must end this much nearer it [m]",
+    Range::positive());
   p("w_goal", w_goal, "weight of the cluster's distance to the goal", Range::atLeast(0));
   p("w_climb", w_climb, "extra path cost per metre climbed", Range::atLeast(0));
   p("w_altitude", w_altitude, "weight of the viewpoint's height difference to the goal",
@@ -267,8 +270,8 @@ bool frontierMemoryOptionsValid(const FrontierMemoryOptions& f) {
   return positive(f.radius) && f.grid >= 0.05 && f.grid <= 5 && positive(f.cluster_size) &&
          f.min_frontier >= 1 && nonNegative(f.climb) && nonNegative(f.w_goal) &&
          nonNegative(f.w_climb) && nonNegative(f.w_altitude) && nonNegative(f.w_size) &&
-         nonNegative(f.hysteresis) && f.tabu_attempts >= 1 && positive(f.tabu_radius) &&
-         f.radius / f.grid <= 200;
+         nonNegative(f.hysteresis) && positive(f.progress) && f.tabu_attempts >= 1 &&
+         positive(f.tabu_radius) && f.radius / f.grid <= 200;
 }
 
 std::unique_ptr<GoalSelector> makeStrategy(const ExplorerOptions& o) {

@@ -1,6 +1,6 @@
 // frontier_memory on hand-built maps: a verified path to a reachable goal (around a wall, over a
-// low one only with altitude layers), a frontier viewpoint facing its cluster when the goal is in
-// unknown space (never the goal itself), the tabu on targets asked for again from the same place,
+// low one only with altitude layers), toward a goal in unknown space, or else a frontier viewpoint
+// facing its cluster (never the goal itself), the tabu on targets asked for again from the same place,
 // the way home, determinism, and what it says without a map.
 #include <cmath>
 #include <string>
@@ -58,22 +58,38 @@ TEST(FrontierMemory, AReachableGoalIsProposedAlongAVerifiedPath) {
   EXPECT_NE(p.reason.find("path to the goal"), std::string::npos) << p.reason;
 }
 
-TEST(FrontierMemory, AGoalInUnknownSpaceGetsAFrontierViewpointNeverTheGoal) {
+TEST(FrontierMemory, AGoalInUnknownSpaceGetsAPathTowardItOrAFrontierViewpointNeverTheGoal) {
   // Observed up to x = 4; the goal lies 20 m ahead in unknown space.
   const HandMap map = observedBox({-4, -4, 0.4}, {4, 4, 2.6});
   const ExplorerOptions o = frontierOptions();
-  const auto selector = makeGoalSelector(o);
-  const ExplorationRequest r = request(1);
-  const Proposal p = selector->select(r, map.view());
+  ExplorationRequest r = request(1);
+  const Proposal toward = makeGoalSelector(o)->select(r, map.view());
+  ASSERT_TRUE(toward.found) << toward.reason;
+  EXPECT_NE(toward.reason.find("toward the goal"), std::string::npos) << toward.reason;
+  const Eigen::Vector3d end = toward.waypoints.back();
+  EXPECT_LE((end - r.goal).norm(), (r.start - r.goal).norm() - o.frontier_memory.progress);
+  EXPECT_GE(sampleEsdf(map.esdf, end).distance, o.min_clearance - kVoxel);
+  EXPECT_NEAR(toward.yaws.back(), std::atan2(r.goal.y() - end.y(), r.goal.x() - end.x()), 1e-12);
+  expectFreePath(toward, r.start, map.esdf, o.min_clearance);
+
+  // From near the box's end no cell is 2 m nearer the goal: a frontier viewpoint.
+  r.start = Eigen::Vector3d(2.5, 0, 1.5);
+  const Proposal p = makeGoalSelector(o)->select(r, map.view());
   ASSERT_TRUE(p.found) << p.reason;
+  EXPECT_NE(p.reason.find("viewpoint"), std::string::npos) << p.reason;
   const Eigen::Vector3d v = p.waypoints.back();
   EXPECT_GT((v - r.goal).norm(), 10);
   const EsdfSample s = sampleEsdf(map.esdf, v);
   ASSERT_TRUE(s.known);
   EXPECT_GE(s.distance, o.min_clearance);
-  // Toward the goal's side of the box, facing the frontier there (+x, within 45 degrees).
-  EXPECT_GT(v.x(), 1.0);
-  EXPECT_LT(std::abs(p.yaws.back()), M_PI / 4 + 1e-9) << p.reason;
+  // It faces a frontier cluster: the view from it along its yaw meets the unobserved boundary
+  // within the camera's range.
+  const Eigen::Vector3d ray(std::cos(p.yaws.back()), std::sin(p.yaws.back()), 0);
+  bool meets_unknown = false;
+  for (double d = 0; d <= 5 && !meets_unknown; d += kVoxel / 2) {
+    meets_unknown = map.tsdf.voxel(map.tsdf.voxelIndex(v + d * ray)) == nullptr;
+  }
+  EXPECT_TRUE(meets_unknown) << p.reason;
   expectFreePath(p, r.start, map.esdf, o.min_clearance);
 }
 
@@ -149,9 +165,10 @@ TEST(FrontierMemory, WithNoFrontierInReachItGoesBackToAPlaceThatHadOne) {
   // First stuck at the start with frontiers around.
   const HandMap open = observedBox({-4, -4, 0.4}, {4, 4, 2.6});
   ASSERT_TRUE(selector->select(request(1), open.view()).found);
-  // Then at (3, 0) in a closed room: everything within reach observed, walls all around.
+  // Then at (3, 0) in a closed room: everything within reach observed, walls all around, none of
+  // it 2 m nearer the goal.
   const auto room = [](const Eigen::Vector3d& p) {
-    return std::min({p.x() + 5, 12 - p.x(), p.y() + 8, 8 - p.y()});
+    return std::min({p.x() + 5, 4.5 - p.x(), p.y() + 8, 8 - p.y()});
   };
   const HandMap closed = observedBox({-12, -15, 0.4}, {19, 15, 2.6}, room);
   ExplorationRequest r = request(2);

@@ -117,6 +117,7 @@ struct FrontierMemoryOptions {
   bool layers = true;         ///< search and look up to `climb` above and below the start
   double climb = 3.0;         ///< [m]
   bool memory = true;         ///< remember places, failed targets and the committed one
+  double progress = 2.0;      ///< a path toward the goal must end this much nearer it [m]
   double w_goal = 2.0;        ///< weight of the cluster's distance to the goal
   double w_climb = 1.0;       ///< extra cost per metre climbed
   double w_altitude = 0.3;    ///< weight of the viewpoint's height difference to the goal
