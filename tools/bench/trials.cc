@@ -54,6 +54,8 @@ struct Method {
 // around, no stall watchdog.
 constexpr const char* kPaperExplorer = "{fixed_yaw: false, look_around: {enabled: false}}";
 constexpr const char* kPaperPlanner = "{stall_cycles: 0}";
+// frontier_memory's planner: its paths followed by the carrot, and the stall watchdog.
+constexpr const char* kMemoryPlanner = "{carrot: true, stall_cycles: 4}";
 const Method kMethods[] = {
     {"none", nullptr, kPaperExplorer, kPaperPlanner},
     {"random", "random", kPaperExplorer, kPaperPlanner},
@@ -65,7 +67,7 @@ const Method kMethods[] = {
     // their yaws along the path (the carrot), a look around at each new stuck place, and the stall
     // watchdog.
     {"frontier_memory", "frontier_memory", "{fixed_yaw: true, look_around: {enabled: true}}",
-     "{carrot: true, stall_cycles: 4}"},
+     kMemoryPlanner},
     // Ablation: the paper's method, its candidates flown facing their yaw, a look around at each
     // new stuck place, and the stall watchdog.
     {"local_exploration_look", "local_exploration",
@@ -74,6 +76,15 @@ const Method kMethods[] = {
     // keeps the clearance, and never the global goal as its answer.
     {"local_exploration_reachable", "local_exploration", "{reachable: true, p_goal: 0.0}",
      kPaperPlanner, true},
+    // Ablations of frontier_memory: at the vehicle's height only; facing along the velocity (no
+    // yaws, so no looks either); answering every request as if it were the first.
+    {"frontier_memory_flat", "frontier_memory",
+     "{fixed_yaw: true, look_around: {enabled: true}, frontier_memory: {layers: false}}",
+     kMemoryPlanner, true},
+    {"frontier_memory_no_yaw", "frontier_memory", "{fixed_yaw: false}", kMemoryPlanner, true},
+    {"frontier_memory_no_memory", "frontier_memory",
+     "{fixed_yaw: true, look_around: {enabled: true}, frontier_memory: {memory: false}}",
+     kMemoryPlanner, true},
 };
 
 // The goal-finding variants of the optimization-only experiment (BENCHMARK.md, E1).
