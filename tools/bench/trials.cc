@@ -54,6 +54,8 @@ struct Method {
 // around, no stall watchdog.
 constexpr const char* kPaperExplorer = "{fixed_yaw: false, look_around: {enabled: false}}";
 constexpr const char* kPaperPlanner = "{stall_cycles: 0}";
+// Proposals flown facing their yaws, and a look around at each new stuck place.
+constexpr const char* kLookExplorer = "{fixed_yaw: true, look_around: {enabled: true}}";
 // frontier_memory's planner: its paths followed by the carrot, and the stall watchdog.
 constexpr const char* kMemoryPlanner = "{carrot: true, stall_cycles: 4}";
 const Method kMethods[] = {
@@ -66,12 +68,10 @@ const Method kMethods[] = {
     // Beyond the paper: frontier viewpoints along verified paths with a memory, flown facing
     // their yaws along the path (the carrot), a look around at each new stuck place, and the stall
     // watchdog.
-    {"frontier_memory", "frontier_memory", "{fixed_yaw: true, look_around: {enabled: true}}",
-     kMemoryPlanner},
+    {"frontier_memory", "frontier_memory", kLookExplorer, kMemoryPlanner},
     // Ablation: the paper's method, its candidates flown facing their yaw, a look around at each
     // new stuck place, and the stall watchdog.
-    {"local_exploration_look", "local_exploration",
-     "{fixed_yaw: true, look_around: {enabled: true}}", "{stall_cycles: 4}", true},
+    {"local_exploration_look", "local_exploration", kLookExplorer, "{stall_cycles: 4}", true},
     // Ablation: the paper's method, its candidates only where a straight line from the vehicle
     // keeps the clearance, and never the global goal as its answer.
     {"local_exploration_reachable", "local_exploration", "{reachable: true, p_goal: 0.0}",
@@ -81,7 +81,7 @@ const Method kMethods[] = {
     {"frontier_memory_flat", "frontier_memory",
      "{fixed_yaw: true, look_around: {enabled: true}, frontier_memory: {layers: false}}",
      kMemoryPlanner, true},
-    {"frontier_memory_no_yaw", "frontier_memory", "{fixed_yaw: false}", kMemoryPlanner, true},
+    {"frontier_memory_no_yaw", "frontier_memory", kPaperExplorer, kMemoryPlanner, true},
     {"frontier_memory_no_memory", "frontier_memory",
      "{fixed_yaw: true, look_around: {enabled: true}, frontier_memory: {memory: false}}",
      kMemoryPlanner, true},
@@ -302,7 +302,7 @@ void checkOracle(const sim::World& world, const local_planner::LocalPlannerNodeO
                  TrialResult& result) {
   const sim::GroundTruth truth(world);
   sim::OracleOptions planning;
-  planning.radius = planner.planner.loco.robot_radius + planner.planner.loco.clearance_margin;
+  planning.radius = planner.planner.loco.requiredClearance();
   const sim::OracleResult oracle = sim::checkSolvable(truth, planning);
   result.solvable = oracle.solvable;
   result.bottleneck_m = oracle.bottleneck_m;
@@ -434,8 +434,7 @@ TrialGraphOptions trialGraphOptions(const std::string& method, const std::string
   node = loadParams<local_planner::LocalPlannerNodeOptions>(dir + "/local_planner.yaml");
   if (graph.explorer) {
     // The explorer proposes, and its trees keep, the clearance the planner accepts.
-    graph.explorer->explorer.min_clearance =
-        node.planner.loco.robot_radius + node.planner.loco.clearance_margin;
+    graph.explorer->explorer.min_clearance = node.planner.loco.requiredClearance();
   }
   overrideParams(node.planner, strategy.planner, "method " + method);
   node.planner.goal_finder.method = variant.finder_method;

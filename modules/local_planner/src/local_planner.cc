@@ -97,8 +97,7 @@ LocalPlanner::LocalPlanner(LocalPlannerOptions options, std::function<double()> 
     : options_(std::move(options)),
       now_ms_(now_ms ? std::move(now_ms) : [] { return 0.0; }),
       loco_(options_.loco),
-      goal_finder_(options_.goal_finder,
-                   options_.loco.robot_radius + options_.loco.clearance_margin) {
+      goal_finder_(options_.goal_finder, options_.loco.requiredClearance()) {
   const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
   if (!positive(options_.goal_tolerance) ||
       !(std::isfinite(options_.min_progress) && options_.min_progress >= 0) ||
@@ -255,7 +254,7 @@ void LocalPlanner::hold(CycleReport& report, CycleState state, const std::string
 
 DistanceField LocalPlanner::fenced(const DistanceField& field) const {
   const Eigen::Vector3d lo = options_.flight_volume_min, hi = options_.flight_volume_max;
-  const double clearance = options_.loco.robot_radius + options_.loco.clearance_margin;
+  const double clearance = options_.loco.requiredClearance();
   return [&field, lo, hi, clearance](const Eigen::Vector3d& p) {
     EsdfSample sample = field(p);
     if (!sample.known) return sample;
@@ -274,13 +273,10 @@ DistanceField LocalPlanner::fenced(const DistanceField& field) const {
   };
 }
 
-double LocalPlanner::requiredClearance() const {
-  return options_.loco.robot_radius + options_.loco.clearance_margin;
-}
-
 void LocalPlanner::recheck(const DistanceField& field, CycleReport& report) {
   const double from = toSeconds(report.utime - committed_->startUtime());
-  const ClearanceCheck check = checkClearance(*committed_, from, field, requiredClearance());
+  const ClearanceCheck check =
+      checkClearance(*committed_, from, field, options_.loco.requiredClearance());
   if (check.clear) return;
   const Stop stop = planStop(report.utime, report.start, field, options_.loco);
   commit(stop.trajectory, committed_yaw_, report);
@@ -339,7 +335,7 @@ std::optional<LocalPlanner::Carrot> LocalPlanner::carrot(const Goal& goal, const
                                                          const Eigen::Vector3d& start,
                                                          const DistanceField& field) const {
   const double step = 0.1, horizon = options_.goal_finder.horizon;
-  const double clearance = requiredClearance();
+  const double clearance = options_.loco.requiredClearance();
   const auto freeFrom = [&](const Eigen::Vector3d& end) {
     const int n = std::max(1, static_cast<int>(std::ceil((end - start).norm() / step)));
     for (int k = 1; k <= n; ++k) {
@@ -352,20 +348,26 @@ std::optional<LocalPlanner::Carrot> LocalPlanner::carrot(const Goal& goal, const
   if (progress.carrot) path.push_back(*progress.carrot);
   path.insert(path.end(), goal.waypoints.begin() + static_cast<long>(progress.waypoint),
               goal.waypoints.end());
-  std::optional<Carrot> best;
+  // The points of the path every `step` up to where it first leaves the horizon, in order; the
+  // carrot is the last of them a free segment reaches, so they are tried from the far end.
+  std::vector<Carrot> points;
+  bool inside = true;
   Eigen::Vector3d from = start;
-  for (size_t j = 0; j < path.size(); ++j) {
+  for (size_t j = 0; j < path.size() && inside; ++j) {
     const Eigen::Vector3d& to = path[j];
     const size_t i = progress.waypoint + (progress.carrot && j > 0 ? j - 1 : j);
     const int n = std::max(1, static_cast<int>(std::ceil((to - from).norm() / step)));
-    for (int k = 1; k <= n; ++k) {
+    for (int k = 1; k <= n && inside; ++k) {
       const Eigen::Vector3d p = from + (to - from) * (static_cast<double>(k) / n);
-      if ((p - start).norm() > horizon) return best;
-      if (freeFrom(p)) best = Carrot{p, i};
+      inside = (p - start).norm() <= horizon;
+      if (inside) points.push_back(Carrot{p, i});
     }
     from = to;
   }
-  return best;
+  for (auto it = points.rbegin(); it != points.rend(); ++it) {
+    if (freeFrom(it->position)) return *it;
+  }
+  return std::nullopt;
 }
 
 bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const DistanceField& field,
@@ -379,8 +381,9 @@ bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const Distan
   ends.start_velocity = report.start.velocity;
   ends.start_acceleration = report.start.acceleration;
   size_t to = waypoint;  // the waypoint the committed plan flies toward
-  std::optional<std::string> refused = "";
+  std::optional<std::string> refused;
   // The carrot: a fixed end on the path, passing the waypoints before it.
+  report.carrot = false;
   std::optional<Carrot> c;
   if (options_.carrot) c = carrot(goal, progress, report.start.position, field);
   if (c && (c->position - report.start.position).norm() > options_.goal_tolerance) {
@@ -390,7 +393,7 @@ bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const Distan
     refused = optimizeToward(ends, /*free_end=*/false, report.goal, field, report);
     report.carrot = !refused;
   }
-  if (refused) {  // no carrot, or none that could be flown: the soft goal
+  if (!report.carrot) {  // no carrot, or none that could be flown: the soft goal
     to = waypoint;
     const Eigen::Vector3d& target = goal.waypoints[to];
     report.goal = target;

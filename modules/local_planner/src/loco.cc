@@ -135,8 +135,7 @@ LocoCost LocoProblem::cost(const Derivatives& free, Derivatives* gradient) const
   const double epsilon = options_.epsilon();
   // The potential rises from a little beyond the clearance acceptance asks for, so an optimum
   // pressed against it (seen every sample_dt) still clears it at every acceptance sample.
-  const double clearance =
-      options_.robot_radius + options_.clearance_margin + options_.potential_buffer;
+  const double clearance = options_.requiredClearance() + options_.potential_buffer;
   for (const Sample& s : samples_) {
     const Eigen::RowVector3d p = s.position_row.head(nf) * fixed_ + s.position_row.tail(np) * free;
     const Eigen::RowVector3d v = s.velocity_row.head(nf) * fixed_ + s.velocity_row.tail(np) * free;
@@ -178,7 +177,7 @@ LocoProblem::Check LocoProblem::check(const Derivatives& free) const {
     result.reason = "not a valid trajectory: " + trajectory.error();
     return result;
   }
-  const double required = options_.robot_radius + options_.clearance_margin;
+  const double required = options_.requiredClearance();
   const ClearanceCheck clearance = checkClearance(*trajectory, 0, field_, required);
   result.min_distance = clearance.min_distance;
   result.collision_free = clearance.clear;

@@ -49,7 +49,7 @@ Stop planStop(int64_t utime, const TrajectoryState& start, const DistanceField& 
   while (duration < kLongest && !withinLimits(stopOf(utime, start, duration), options)) {
     duration *= kGrowth;
   }
-  const double required = options.robot_radius + options.clearance_margin;
+  const double required = options.requiredClearance();
   std::optional<Stop> hardest;
   for (int i = 0; i < kCandidates; ++i, duration *= kGrowth) {
     Stop stop{stopOf(utime, start, duration), false, 0};

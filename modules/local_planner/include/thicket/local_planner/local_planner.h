@@ -5,10 +5,11 @@
 // asks for an intermediate goal and waits for the answer before closing the cycle; an
 // intermediate goal (or waypoint list) is then tracked until it is reached or cannot be planned
 // toward, and the planner returns to the global goal. Waypoints are reached within a tolerance.
-// A goal may give each waypoint a yaw: the trajectory toward it is flown facing that yaw, and the
-// waypoint is reached only when the vehicle is there at that yaw (it stops and turns if it
-// arrives before it has turned). The stall watchdog (off by default) gives up a goal the
-// reference has not really moved toward for a few cycles, even when every cycle planned.
+// A goal may give each waypoint a yaw: the trajectory toward it is flown facing that yaw (unless
+// that would not face where it flies: max_yaw_offset), and the waypoint is reached only when the
+// vehicle is there at that yaw (it stops and turns if it arrives before it has turned). The stall
+// watchdog (off by default) gives up a goal the reference has not really moved toward for a few
+// cycles, even when every cycle planned.
 //
 // Commitment. Each cycle plans from the *reference*: the committed trajectory at the cycle's
 // time (the estimate only when there is no committed trajectory or the two diverge). A cycle that
@@ -49,8 +50,9 @@ struct Goal {
   std::string strategy;  ///< the exploration strategy that proposed it
   std::vector<Eigen::Vector3d> waypoints;
   /// Empty: the vehicle faces along its velocity. Else one yaw per waypoint [rad]: the vehicle
-  /// flies toward waypoint i facing yaws[i], and the waypoint counts as reached only once a frame
-  /// was taken there at that yaw (a waypoint at the vehicle's position is a look: hover and turn).
+  /// flies toward waypoint i facing yaws[i] (or its direction of flight when yaws[i] is more than
+  /// max_yaw_offset off it), and the waypoint counts as reached only once a frame was taken there
+  /// at that yaw (a waypoint at the vehicle's position is a look: hover and turn).
   std::vector<double> yaws;
   double tolerance = 0;  ///< a waypoint is reached within this [m]; 0: the planner's default
 };
@@ -210,8 +212,6 @@ class LocalPlanner {
   // the acceptance needs, so the collision potential keeps trajectories inside and the clearance
   // check refuses any sample outside (goal finding too). Unknown space stays unknown.
   DistanceField fenced(const DistanceField& field) const;
-  // The clearance acceptance asks for: robot radius + clearance margin.
-  double requiredClearance() const;
   // Re-checks the rest of the committed trajectory from the report's time on the (fenced) field;
   // when it fails, commits a stop from the report's start and says why in report.blocked.
   void recheck(const DistanceField& field, CycleReport& report);

@@ -99,6 +99,8 @@ struct LocoOptions {
   double goal_smoothing = 0.01;
 
   double epsilon() const { return robot_radius + potential_margin; }
+  /// The clearance the acceptance asks of every sample: robot_radius + clearance_margin [m].
+  double requiredClearance() const { return robot_radius + clearance_margin; }
   void declare(Params& p);
 };
 
