@@ -38,6 +38,11 @@ void ExplorerNode::onMap(MapMirror<Voxel>& mirror, const char* channel, const ma
   } else if (result.outcome == Outcome::kRefused) {
     reportBadMessage(channel, result.reason);
   }
+  // The selector's tables are built as soon as the voxel size is known, not at the first request.
+  if (tsdf_.layer() != nullptr && tsdf_.layer()->voxelSize() != prepared_voxel_size_) {
+    prepared_voxel_size_ = tsdf_.layer()->voxelSize();  // first: a failure is reported once
+    selector_->prepare(prepared_voxel_size_);
+  }
 }
 
 void ExplorerNode::onStatus(const planner_status_t& msg) {

@@ -49,6 +49,7 @@ class ExplorerNode : public Node {
   std::unique_ptr<GoalSelector> selector_;
   MapMirror<TsdfVoxel> tsdf_;
   MapMirror<EsdfVoxel> esdf_;
+  double prepared_voxel_size_ = 0;  // the selector's tables are built for this voxel size
   int64_t next_goal_id_ = 1;
   int64_t goals_found_ = 0;
   std::vector<double> selection_ms_;

@@ -73,6 +73,8 @@ void LookAroundOptions::declare(Params& p) {
   p("headings", headings, "headings compared, evenly spaced", Range::between(1, 360));
   p("min_gain", min_gain, "a view with less visible unknown fraction is not worth a look",
     Range::between(0, 1));
+  p("subsample", subsample, "the look's gains check every subsample-th frustum voxel",
+    Range::between(1, 100000));
 }
 
 void RrtStarOptions::declare(Params& p) {
@@ -140,6 +142,7 @@ class LocalExplorationSelector final : public GoalSelector {
  public:
   explicit LocalExplorationSelector(const ExplorerOptions& options) : options_(options) {}
   const char* name() const override { return "local_exploration"; }
+  void prepare(double voxel_size) override { gains_.forVoxelSize(voxel_size); }
 
   Proposal select(const ExplorationRequest& request, const MapView& maps) override {
     Rng rng(mixSeed(options_.seed, request.cycle));
@@ -312,7 +315,8 @@ std::unique_ptr<GoalSelector> makeGoalSelector(const ExplorerOptions& o) {
       !positive(o.nbvp.range) || !(o.nbvp.lambda >= 0) || !std::isfinite(o.nbvp.lambda) ||
       !(o.nbvp.zero_gain >= 0) || !std::isfinite(o.nbvp.zero_gain) ||
       !positive(o.nbvp.check_step) || !positive(o.look_around.radius) ||
-      o.look_around.headings < 1 || !(o.look_around.min_gain >= 0 && o.look_around.min_gain <= 1) ||
+      o.look_around.headings < 1 || o.look_around.subsample < 1 ||
+      !(o.look_around.min_gain >= 0 && o.look_around.min_gain <= 1) ||
       !frontierMemoryOptionsValid(o.frontier_memory)) {
     throw std::invalid_argument("explorer: an option is out of range (see ExplorerOptions)");
   }

@@ -20,6 +20,10 @@ class LookAroundSelector final : public GoalSelector {
   LookAroundSelector(const ExplorerOptions& options, std::unique_ptr<GoalSelector> strategy)
       : options_(options), strategy_(std::move(strategy)) {}
   const char* name() const override { return strategy_->name(); }
+  void prepare(double voxel_size) override {
+    gains_.forVoxelSize(voxel_size);
+    strategy_->prepare(voxel_size);
+  }
 
   Proposal select(const ExplorationRequest& request, const MapView& maps) override {
     // Only looks of earlier cycles count: the same cycle asked again is answered the same.
@@ -71,7 +75,7 @@ class LookAroundSelector final : public GoalSelector {
       const double yaw = std::remainder(2 * M_PI * k / headings, 2 * M_PI);
       if (lookedAt(yaw)) continue;
       const Gain g = gain.visibleUnknownFraction(
-          tsdf, ExplorationGain::cameraAt(request.start, yaw), options_.subsample);
+          tsdf, ExplorationGain::cameraAt(request.start, yaw), options_.look_around.subsample);
       ++look.gain_evaluations;
       if (g.unknown_fraction < options_.look_around.min_gain) continue;
       // Toward the goal counts fully, away from it a third.

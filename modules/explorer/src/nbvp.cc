@@ -71,6 +71,7 @@ class NbvpSelector final : public GoalSelector {
  public:
   explicit NbvpSelector(const ExplorerOptions& options) : options_(options) {}
   const char* name() const override { return "nbvp"; }
+  void prepare(double voxel_size) override { gains_.forVoxelSize(voxel_size); }
 
   Proposal select(const ExplorationRequest& request, const MapView& maps) override {
     // The memory of the previous request, if it may be used, and forgotten in any case: this

@@ -139,7 +139,9 @@ TEST(GoalSelector, LookAroundTurnsOncePerPlaceTowardTheMostUnknownThenAsksTheStr
   const HandMap map = observedBox({-8, 0, -4}, {8, 8, 7});
   const ExplorationGain gain(o.gain, kVoxel);
   const auto unknownAt = [&](const Eigen::Vector3d& x, double yaw) {
-    return gain.visibleUnknownFraction(map.tsdf, ExplorationGain::cameraAt(x, yaw), o.subsample)
+    return gain
+        .visibleUnknownFraction(map.tsdf, ExplorationGain::cameraAt(x, yaw),
+                                o.look_around.subsample)
         .unknown_fraction;
   };
   const auto selector = makeGoalSelector(o);
@@ -239,6 +241,31 @@ TEST(GoalSelector, RefusesUnknownStrategiesAndBadOptions) {
   EXPECT_NO_THROW(makeGoalSelector(o));
   o.look_around.headings = 0;
   EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
+  o.look_around.headings = 8;
+  o.look_around.subsample = 0;
+  EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
+}
+
+// prepare only builds tables ahead of time: a prepared selector answers as one that is not.
+TEST(GoalSelector, PreparingForTheVoxelSizeChangesNoAnswer) {
+  const HandMap map = observedBox({-8, 0, -4}, {8, 8, 7});
+  for (const std::string& strategy : strategyNames()) {
+    ExplorerOptions o = optionsFor(strategy);
+    o.fixed_yaw = true;
+    o.look_around.enabled = true;
+    const auto prepared = makeGoalSelector(o), unprepared = makeGoalSelector(o);
+    prepared->prepare(kVoxel);
+    ExplorationRequest r = request(1);
+    r.start = Eigen::Vector3d(0, 1, 1.5);
+    for (int cycle = 1; cycle <= 3; ++cycle) {
+      r.cycle = cycle;
+      const Proposal a = prepared->select(r, map.view()), b = unprepared->select(r, map.view());
+      EXPECT_EQ(a.found, b.found) << strategy;
+      EXPECT_EQ(a.waypoints, b.waypoints) << strategy;
+      EXPECT_EQ(a.yaws, b.yaws) << strategy;
+      EXPECT_EQ(a.reason, b.reason) << strategy;
+    }
+  }
 }
 
 }  // namespace

@@ -78,6 +78,9 @@ struct LookAroundOptions {
   double radius = 1.0;    ///< a place is where a look was answered, within this [m]
   int headings = 8;       ///< headings compared, evenly spaced
   double min_gain = 0.1;  ///< a view with less visible unknown is not worth a look
+  /// The look's gains check every subsample-th frustum voxel: a ranking of a few headings needs
+  /// far fewer than the strategies' gains (E5: stride 100 is within 1.3 % at p95).
+  int subsample = 100;
 
   void declare(Params& p);
 };
@@ -167,6 +170,9 @@ class GoalSelector {
   virtual ~GoalSelector() = default;
   virtual const char* name() const = 0;
   virtual Proposal select(const ExplorationRequest& request, const MapView& maps) = 0;
+  /// Builds what selection needs for maps of this voxel size (the gain's frustum tables), so that
+  /// the first request does not pay for it. Optional: select builds it when it is missing.
+  virtual void prepare(double /*voxel_size*/) {}
 };
 
 /// The strategy options.strategy names. Throws std::invalid_argument on an unknown name or bad
