@@ -123,10 +123,12 @@ class FrontierMemorySelector final : public GoalSelector {
     const std::optional<double> start_clearance =
         treeClearance(options_, *maps.esdf, request.start);
     const Grid grid = makeGrid(request.start);
-    const std::vector<double> cost =
-        start_clearance ? reach(grid, *maps.esdf, request.start, *start_clearance)
-                        : std::vector<double>(static_cast<size_t>(grid.count()),
-                                              std::numeric_limits<double>::infinity());
+    const Reach reached = start_clearance
+                              ? reach(grid, *maps.esdf, request.start, *start_clearance)
+                              : Reach{std::vector<double>(static_cast<size_t>(grid.count()),
+                                                          std::numeric_limits<double>::infinity()),
+                                      {}};
+    const std::vector<double>& cost = reached.cost;
     const auto costAt = [&](const Eigen::Vector3d& p) {
       const Eigen::Vector3i c = grid.cellAt(p);
       return grid.inside(c) ? cost[static_cast<size_t>(grid.index(c))]
@@ -136,7 +138,7 @@ class FrontierMemorySelector final : public GoalSelector {
     // A verified path to the goal.
     if (std::isfinite(costAt(request.goal)) &&
         esdfFree(options_, *maps.esdf, request.goal, options_.min_clearance)) {
-      proposal = pathProposal(grid, cost, *maps.esdf, request.start, request.goal, std::nullopt,
+      proposal = pathProposal(grid, reached, *maps.esdf, request.start, request.goal, std::nullopt,
                               *start_clearance);
       proposal.reason = "a verified path to the goal";
       remember(request, next, proposal, true);
@@ -158,7 +160,7 @@ class FrontierMemorySelector final : public GoalSelector {
     if (nearest >= 0) {
       const Eigen::Vector3d target = grid.center(nearest);
       const Eigen::Vector3d ahead = request.goal - target;
-      proposal = pathProposal(grid, cost, *maps.esdf, request.start, target,
+      proposal = pathProposal(grid, reached, *maps.esdf, request.start, target,
                               std::atan2(ahead.y(), ahead.x()), *start_clearance);
       char text[160];
       std::snprintf(text, sizeof(text),
@@ -219,7 +221,7 @@ class FrontierMemorySelector final : public GoalSelector {
       // Hysteresis: the committed target stands unless another is clearly better.
       const Candidate chosen = kept && kept->score <= best->score + o.hysteresis ? *kept : *best;
       const Eigen::Vector3d look = chosen.centroid - chosen.viewpoint;
-      proposal = pathProposal(grid, cost, *maps.esdf, request.start, chosen.viewpoint,
+      proposal = pathProposal(grid, reached, *maps.esdf, request.start, chosen.viewpoint,
                               std::atan2(look.y(), look.x()), *start_clearance);
       proposal.score = chosen.score;
       char text[200];
@@ -328,12 +330,18 @@ class FrontierMemorySelector final : public GoalSelector {
     return Grid(origin, o.grid, Eigen::Vector3i(2 * half + 1, 2 * half + 1, below + above + 1));
   }
 
-  // Path costs from the start to every grid cell (infinity where unreached).
-  std::vector<double> reach(const Grid& grid, const EsdfLayer& esdf, const Eigen::Vector3d& start,
-                            double start_clearance) const {
+  // Path costs from the start to every grid cell (infinity where unreached), and the ESDF
+  // distance of every free cell tested.
+  struct Reach {
+    std::vector<double> cost;
+    std::vector<float> clearance;
+  };
+  Reach reach(const Grid& grid, const EsdfLayer& esdf, const Eigen::Vector3d& start,
+              double start_clearance) const {
     const FrontierMemoryOptions& o = options_.frontier_memory;
     const double inf = std::numeric_limits<double>::infinity();
-    std::vector<double> cost(static_cast<size_t>(grid.count()), inf);
+    Reach r{std::vector<double>(static_cast<size_t>(grid.count()), inf),
+            std::vector<float>(static_cast<size_t>(grid.count()), 0.0f)};
     std::vector<signed char> free(static_cast<size_t>(grid.count()), -1);  // -1: not yet tested
     const auto isFree = [&](int i) {
       signed char& f = free[static_cast<size_t>(i)];
@@ -342,19 +350,30 @@ class FrontierMemorySelector final : public GoalSelector {
         const double needed = (p - start).norm() < 1.0 ? start_clearance : options_.min_clearance;
         const EsdfVoxel* v = esdf.voxel(esdf.voxelIndex(p));
         f = inFlightVolume(options_, p) && v != nullptr && v->observed && v->distance >= needed;
+        if (f > 0) r.clearance[static_cast<size_t>(i)] = v->distance;
       }
       return f > 0;
+    };
+    // A step into a cell with less than the comfortable clearance costs up to 1 + w_comfort
+    // times its length: paths keep to the middle of gaps and pass narrow ones only when the way
+    // around costs more.
+    const double comfortable = options_.min_clearance + o.comfort;
+    const auto penalty = [&](int j) {
+      if (o.comfort <= 0) return 1.0;
+      const double short_by = comfortable - r.clearance[static_cast<size_t>(j)];
+      return 1.0 + o.w_comfort * std::clamp(short_by / o.comfort, 0.0, 1.0);
     };
     using Entry = std::pair<double, int>;
     std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
     const int s = grid.index(grid.cellAt(start));
-    cost[static_cast<size_t>(s)] = 0;
+    r.cost[static_cast<size_t>(s)] = 0;
     free[static_cast<size_t>(s)] = 1;
+    r.clearance[static_cast<size_t>(s)] = static_cast<float>(start_clearance);
     open.push({0, s});
     while (!open.empty()) {
       const auto [c, i] = open.top();
       open.pop();
-      if (c > cost[static_cast<size_t>(i)]) continue;
+      if (c > r.cost[static_cast<size_t>(i)]) continue;
       const Eigen::Vector3i cell = grid.cellOf(i);
       for (int dz = -1; dz <= 1; ++dz) {
         for (int dy = -1; dy <= 1; ++dy) {
@@ -365,35 +384,41 @@ class FrontierMemorySelector final : public GoalSelector {
             const int j = grid.index(n);
             if (!isFree(j)) continue;
             const double step =
-                o.grid * std::sqrt(static_cast<double>(dx * dx + dy * dy + dz * dz));
+                o.grid * std::sqrt(static_cast<double>(dx * dx + dy * dy + dz * dz)) * penalty(j);
             const double next = c + step + o.w_climb * o.grid * std::max(0, dz);
-            if (next < cost[static_cast<size_t>(j)]) {
-              cost[static_cast<size_t>(j)] = next;
+            if (next < r.cost[static_cast<size_t>(j)]) {
+              r.cost[static_cast<size_t>(j)] = next;
               open.push({next, j});
             }
           }
         }
       }
     }
-    return cost;
+    return r;
   }
 
-  // The path to `target` down the cost field, shortened by straight free segments.
-  Proposal pathProposal(const Grid& grid, const std::vector<double>& cost, const EsdfLayer& esdf,
+  // The path to `target` down the cost field, shortened by straight free segments: a shortcut
+  // keeps the clearance of the cells it replaces, up to the comfortable one, and at least
+  // `clearance`.
+  Proposal pathProposal(const Grid& grid, const Reach& reach, const EsdfLayer& esdf,
                         const Eigen::Vector3d& start, const Eigen::Vector3d& target,
                         std::optional<double> final_yaw, double clearance) const {
-    std::vector<Eigen::Vector3d> cells = {target};
+    const auto costOf = [&](const Eigen::Vector3i& c) {
+      return reach.cost[static_cast<size_t>(grid.index(c))];
+    };
     Eigen::Vector3i cell = grid.cellAt(target);
+    std::vector<Eigen::Vector3d> cells = {target};
+    std::vector<double> clear = {reach.clearance[static_cast<size_t>(grid.index(cell))]};
     const Eigen::Vector3i s = grid.cellAt(start);
     for (int guard = 0; cell != s && guard < grid.count(); ++guard) {
       Eigen::Vector3i down = cell;
-      double lowest = cost[static_cast<size_t>(grid.index(cell))];
+      double lowest = costOf(cell);
       for (int dz = -1; dz <= 1; ++dz) {
         for (int dy = -1; dy <= 1; ++dy) {
           for (int dx = -1; dx <= 1; ++dx) {
             const Eigen::Vector3i n = cell + Eigen::Vector3i(dx, dy, dz);
-            if (grid.inside(n) && cost[static_cast<size_t>(grid.index(n))] < lowest) {
-              lowest = cost[static_cast<size_t>(grid.index(n))];
+            if (grid.inside(n) && costOf(n) < lowest) {
+              lowest = costOf(n);
               down = n;
             }
           }
@@ -402,17 +427,26 @@ class FrontierMemorySelector final : public GoalSelector {
       if (down == cell) break;
       cell = down;
       cells.push_back(grid.center(cell));
+      clear.push_back(reach.clearance[static_cast<size_t>(grid.index(cell))]);
     }
     std::reverse(cells.begin(), cells.end());
+    std::reverse(clear.begin(), clear.end());
     cells.front() = start;
-    // Shortcut: from each kept point, the farthest later one a straight free segment reaches.
+    // Shortcut: from each kept point, the farthest later one a straight segment reaches with the
+    // clearance of the cells between them (capped at the comfortable one).
     const double step = 0.5 * esdf.voxelSize();
+    const double comfortable = options_.min_clearance + options_.frontier_memory.comfort;
     Proposal proposal;
     proposal.found = true;
     size_t i = 0;
     while (i + 1 < cells.size()) {
       size_t j = cells.size() - 1;
-      while (j > i + 1 && !esdfSegmentFree(options_, esdf, cells[i], cells[j], clearance, step))
+      const auto needed = [&](size_t last) {
+        const double least = *std::min_element(clear.begin() + static_cast<long>(i) + 1,
+                                               clear.begin() + static_cast<long>(last) + 1);
+        return std::max(clearance, std::min(comfortable, least));
+      };
+      while (j > i + 1 && !esdfSegmentFree(options_, esdf, cells[i], cells[j], needed(j), step))
         --j;
       const Eigen::Vector3d d = cells[j] - cells[i];
       proposal.waypoints.push_back(cells[j]);

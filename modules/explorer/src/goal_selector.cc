@@ -57,6 +57,11 @@ void FrontierMemoryOptions::declare(Params& p) {
     Range::positive());
   p("w_goal", w_goal, "weight of the cluster's distance to the goal", Range::atLeast(0));
   p("w_climb", w_climb, "extra path cost per metre climbed", Range::atLeast(0));
+  p("comfort", comfort,
+    "paths prefer this much clearance above min_clearance [m]; shortcuts keep what they replace",
+    Range::atLeast(0));
+  p("w_comfort", w_comfort, "a step into a cell short of it costs up to 1 + this times its length",
+    Range::atLeast(0));
   p("w_altitude", w_altitude, "weight of the viewpoint's height difference to the goal",
     Range::atLeast(0));
   p("w_size", w_size, "weight of the cluster's size", Range::atLeast(0));
@@ -272,9 +277,10 @@ bool frontierMemoryOptionsValid(const FrontierMemoryOptions& f) {
   const auto nonNegative = [](double x) { return std::isfinite(x) && x >= 0; };
   return positive(f.radius) && f.grid >= 0.05 && f.grid <= 5 && positive(f.cluster_size) &&
          f.min_frontier >= 1 && nonNegative(f.climb) && nonNegative(f.w_goal) &&
-         nonNegative(f.w_climb) && nonNegative(f.w_altitude) && nonNegative(f.w_size) &&
-         nonNegative(f.hysteresis) && positive(f.progress) && f.tabu_attempts >= 1 &&
-         positive(f.tabu_radius) && f.radius / f.grid <= 200;
+         nonNegative(f.w_climb) && nonNegative(f.comfort) && nonNegative(f.w_comfort) &&
+         nonNegative(f.w_altitude) && nonNegative(f.w_size) && nonNegative(f.hysteresis) &&
+         positive(f.progress) && f.tabu_attempts >= 1 && positive(f.tabu_radius) &&
+         f.radius / f.grid <= 200;
 }
 
 std::unique_ptr<GoalSelector> makeStrategy(const ExplorerOptions& o) {

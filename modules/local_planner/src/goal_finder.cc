@@ -43,8 +43,14 @@ FoundGoal GoalFinder::find(const Eigen::Vector3d& start, const Eigen::Vector3d& 
   EsdfSample sample = field(found.position);
   while (!isFree(sample) && found.steps < options_.max_steps) {
     const Eigen::Vector3d back = start - found.position;
-    if (options_.method == "gradient" && sample.known && sample.gradient.norm() > 1e-6) {
-      found.position += options_.step * sample.gradient.normalized();
+    // Gradient ascent, unless it would carry the goal behind the start (where the soft goal
+    // would pull the vehicle away from its goal): then a step back along the line.
+    const Eigen::Vector3d ascent =
+        options_.method == "gradient" && sample.known && sample.gradient.norm() > 1e-6
+            ? Eigen::Vector3d(found.position + options_.step * sample.gradient.normalized())
+            : found.position;
+    if (ascent != found.position && (ascent - start).dot(offset) >= 0) {
+      found.position = ascent;
     } else if (back.norm() > 1e-9) {
       // Straight-line backtracking, never past the start.
       found.position += std::min(options_.step, back.norm()) * back.normalized();

@@ -495,6 +495,7 @@ CycleReport LocalPlanner::planCycle(int64_t utime, const DistanceField* map_fiel
         break;
     }
     intermediate_.reset();
+    mission_progress_.carrot.reset();  // the vehicle has moved: the path restarts from here
   }
   switch (track(*mission_, mission_progress_, field, report)) {
     case Tracked::kCommitted:

@@ -1,7 +1,7 @@
 // frontier_memory on hand-built maps: a verified path to a reachable goal (around a wall, over a
 // low one only with altitude layers), toward a goal in unknown space, or else a frontier viewpoint
-// facing its cluster (never the goal itself), the tabu on targets asked for again from the same place,
-// the way home, determinism, and what it says without a map.
+// facing its cluster (never the goal itself), the tabu on targets asked for again from the same
+// place, the way home, determinism, and what it says without a map.
 #include <cmath>
 #include <string>
 #include <vector>
@@ -56,6 +56,46 @@ TEST(FrontierMemory, AReachableGoalIsProposedAlongAVerifiedPath) {
   EXPECT_GE(p.waypoints.size(), 2u);  // not straight through the wall
   expectFreePath(p, r.start, map.esdf, o.min_clearance);
   EXPECT_NE(p.reason.find("path to the goal"), std::string::npos) << p.reason;
+}
+
+// A thick wall x in [1.6, 3.2] with a slit |y| < 0.75 straight ahead (0.65 m of clearance in
+// the ESDF at its middle: passable, barely) and an opening 1.9 < y < 4.3 to the side.
+double slitAndOpening(const Eigen::Vector3d& p) {
+  const double dx = std::max({1.6 - p.x(), p.x() - 3.2, 0.0});
+  const double y = p.y();
+  const double dy = y < -0.75  ? 0.0
+                    : y < 0.0  ? -0.75 - y
+                    : y < 0.75 ? y - 0.75
+                    : y < 1.9  ? 0.0
+                    : y < 3.1  ? 1.9 - y
+                    : y < 4.3  ? y - 4.3
+                               : 0.0;
+  // Inside the wall (dx = 0 and in a solid span): negative; beside it, the distance to its face.
+  if (dy == 0) return dx == 0 ? -0.1 : dx;
+  return dx == 0 ? -dy : std::hypot(dx, -dy);
+}
+
+TEST(FrontierMemory, PathsKeepToWideGapsAndTakeANarrowOneOnlyWhenNothingElseIsNear) {
+  const HandMap map = observedBox({-4, -4, 0.4}, {9, 6, 2.6}, slitAndOpening);
+  ExplorationRequest r = request(1);
+  r.goal = Eigen::Vector3d(6, 0, 1.5);
+  const auto widest = [](const Proposal& p) {
+    double y = 0;
+    for (const Eigen::Vector3d& w : p.waypoints) y = std::max(y, w.y());
+    return y;
+  };
+  ExplorerOptions o = frontierOptions();
+  const Proposal comfortable = makeGoalSelector(o)->select(r, map.view());
+  ASSERT_TRUE(comfortable.found) << comfortable.reason;
+  EXPECT_EQ(comfortable.waypoints.back(), r.goal);
+  EXPECT_GT(widest(comfortable), 1.9) << "through the opening";
+  expectFreePath(comfortable, r.start, map.esdf, o.min_clearance);
+
+  o.frontier_memory.comfort = 0;  // shortest: through the slit
+  const Proposal shortest = makeGoalSelector(o)->select(r, map.view());
+  ASSERT_TRUE(shortest.found) << shortest.reason;
+  EXPECT_LT(widest(shortest), 0.5) << "through the slit";
+  expectFreePath(shortest, r.start, map.esdf, o.min_clearance);
 }
 
 TEST(FrontierMemory, AGoalInUnknownSpaceGetsAPathTowardItOrAFrontierViewpointNeverTheGoal) {

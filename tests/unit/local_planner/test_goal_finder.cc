@@ -212,6 +212,22 @@ TEST(GoalFinder, NeverStepsPastTheStart) {
   }
 }
 
+// A gradient that points back past the start (a wall across the way, seen from its near side)
+// would put the horizon goal behind the vehicle and fly it away from its goal: the search steps
+// back along the line instead, and ends at the start at the farthest.
+TEST(GoalFinder, GradientNeverCarriesTheGoalBehindTheStart) {
+  const GoalFinder gf = finder("gradient", 100);
+  const FoundGoal found = gf.find(kStart, kFarGoal, crowded(Eigen::Vector3d(-1, 0, 0)));
+  EXPECT_FALSE(found.free);
+  EXPECT_NEAR((found.position - kStart).norm(), 0, 1e-9);
+  // With a sideways component: gradient steps while they stay ahead (10 steps of 0.2 m from
+  // x = 3 m), none behind.
+  const FoundGoal oblique =
+      finder("gradient", 10).find(kStart, kFarGoal, crowded(Eigen::Vector3d(-1, 1, 0)));
+  EXPECT_GE((oblique.position - kStart).dot(kFarGoal - kStart), 0);
+  EXPECT_GT(oblique.position.y(), 0.5);  // it did ascend sideways
+}
+
 TEST(GoalFinder, RefusesNonFiniteInput) {
   const GoalFinder gf = finder("gradient");
   const double nan = std::numeric_limits<double>::quiet_NaN();

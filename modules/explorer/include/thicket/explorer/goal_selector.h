@@ -123,11 +123,15 @@ struct FrontierMemoryOptions {
   double progress = 2.0;      ///< a path toward the goal must end this much nearer it [m]
   double w_goal = 2.0;        ///< weight of the cluster's distance to the goal
   double w_climb = 1.0;       ///< extra cost per metre climbed
-  double w_altitude = 0.3;    ///< weight of the viewpoint's height difference to the goal
-  double w_size = 1.0;        ///< weight of the cluster's size
-  double hysteresis = 1.0;    ///< the committed target stands unless another scores this better
-  int tabu_attempts = 2;      ///< a target asked again from its request's place this often ...
-  double tabu_radius = 1.5;   ///< ... is not proposed again within this [m]
+  /// Paths prefer this much clearance above min_clearance [m]: a step into a cell with less costs
+  /// up to 1 + w_comfort times its length, and shortcuts keep the clearance of what they replace.
+  double comfort = 0.2;
+  double w_comfort = 2.0;
+  double w_altitude = 0.3;   ///< weight of the viewpoint's height difference to the goal
+  double w_size = 1.0;       ///< weight of the cluster's size
+  double hysteresis = 1.0;   ///< the committed target stands unless another scores this better
+  int tabu_attempts = 2;     ///< a target asked again from its request's place this often ...
+  double tabu_radius = 1.5;  ///< ... is not proposed again within this [m]
 
   void declare(Params& p);
 };

@@ -2,7 +2,8 @@
 // projected onto the planning horizon sphere around the start; when that point is not free it is
 // moved, either back along the straight line toward the start, or up the ESDF gradient (away from
 // obstacles) with a straight-line step wherever the gradient gives no direction (unknown space, a
-// flat field).
+// flat field) or would carry it behind the start (the plane through the start across the
+// direction to the goal): a horizon goal behind the vehicle would fly it away from its goal.
 #pragma once
 
 #include <string>
