@@ -426,9 +426,22 @@ bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const Distan
   }
   progress.waypoint = to;
   if (report.carrot) progress.carrot = c->position;
-  commit(*trajectory, flightYaw(waypointYaw(goal, to), *trajectory), report);
+  const std::optional<double> yaw = flightYaw(waypointYaw(goal, to), *trajectory);
   report.state = CycleState::kPlanned;
   report.reason.clear();
+  const Eigen::Vector3d travel =
+      trajectory->evaluate(trajectory->duration()) - report.start.position;
+  if (yaw && travel.head<2>().norm() >= options_.goal_tolerance &&
+      std::abs(std::remainder(*yaw - report.vehicle_yaw, 2 * M_PI)) > options_.max_yaw_offset) {
+    // Turn first, then fly: the camera must see where the vehicle goes (a map can hold free
+    // space that has since been taken), and the yaw lags at the vehicle's yaw rate.
+    commit(planStop(report.utime, report.start, field, options_.loco).trajectory, yaw, report);
+    progress.watchdog.reset();
+    report.reason =
+        format("turning from yaw %.2f to %.2f rad before flying", report.vehicle_yaw, *yaw);
+    return true;
+  }
+  commit(*trajectory, yaw, report);
   return true;
 }
 

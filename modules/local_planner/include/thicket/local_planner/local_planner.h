@@ -158,6 +158,8 @@ class Watchdog {
                int cycles, double distance);
   /// How far the reference moved over the window, after stalled() returned true [m].
   double moved() const { return (references_.back() - references_.front()).norm(); }
+  /// Forgets the window (a cycle that turned in place on purpose).
+  void reset() { references_.clear(); }
 
  private:
   int64_t goal_id_ = -1;
