@@ -62,7 +62,8 @@ void LocalPlannerOptions::declare(Params& p) {
   p("stall_distance", stall_distance, "... that distance [m]", Range::positive());
   p("max_yaw_offset", max_yaw_offset,
     "a trajectory is flown at its waypoint's yaw only if its direction is this close to it, else "
-    "facing its end, so the camera sees where it flies [rad]",
+    "facing its end, and when that yaw is farther than this from the vehicle's, it stops and turns "
+    "first, so the camera sees where it flies [rad]",
     Range::between(0, M_PI));
   p("carrot", carrot,
     "follow a goal's waypoints as a path: end each trajectory, at rest, at the farthest point of "

@@ -6,7 +6,8 @@
 // intermediate goal (or waypoint list) is then tracked until it is reached or cannot be planned
 // toward, and the planner returns to the global goal. Waypoints are reached within a tolerance.
 // A goal may give each waypoint a yaw: the trajectory toward it is flown facing that yaw (unless
-// that would not face where it flies: max_yaw_offset), and the waypoint is reached only when the
+// that would not face where it flies: max_yaw_offset; when the vehicle faces farther than that
+// from the yaw, it stops and turns before it flies), and the waypoint is reached only when the
 // vehicle is there at that yaw (it stops and turns if it arrives before it has turned). The stall
 // watchdog (off by default) gives up a goal the reference has not really moved toward for a few
 // cycles, even when every cycle planned.
@@ -135,7 +136,9 @@ struct LocalPlannerOptions {
   /// A trajectory toward a waypoint with a yaw is flown at that yaw only when its horizontal
   /// direction (start to end) is within this of it; otherwise facing its end, so that the camera
   /// (90 degrees wide in the simulation) always sees the space the vehicle flies into and an
-  /// obstacle that appears there. The yaw is taken once the vehicle is at the waypoint [rad].
+  /// obstacle that appears there. A cycle whose flight yaw is more than this off the vehicle's
+  /// yaw commits a stop at that yaw instead (turn first, then fly). The yaw is taken once the
+  /// vehicle is at the waypoint [rad].
   double max_yaw_offset = 0.6;
   /// Follow a goal's waypoints as a path (off: the paper's planner, a soft goal toward each
   /// waypoint in turn). Each cycle first tries the carrot: the farthest point of the polyline
