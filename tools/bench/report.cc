@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -743,6 +744,75 @@ std::string e2Figure(const std::string& scenario, const std::string& extension) 
   return std::string("e2_success") + (scenario == kPaperScenario ? "" : "_" + scenario) + extension;
 }
 
+// How a failed trial failed, from where it ended and what it flew (the classes of the failure
+// analysis behind frontier_memory): a collision; near the goal (it ended within kNearGoalM of
+// it); else by its executed path against the straight line from start to goal: a stall (shorter
+// than the line: it mostly hovered), slow (up to twice the line), a wander (longer).
+enum class FailureClass { kStall, kSlow, kWander, kNearGoal, kCollision };
+constexpr double kNearGoalM = 2.0;
+const char* const kFailureClassNames[] = {"stall", "slow", "wander", "near goal", "collision"};
+
+FailureClass failureClass(const Trial& t) {
+  if (t.collision) return FailureClass::kCollision;
+  if (t.distance_to_goal_m < kNearGoalM) return FailureClass::kNearGoal;
+  if (t.path_length_m < t.straight_line_m) return FailureClass::kStall;
+  return t.path_length_m <= 2 * t.straight_line_m ? FailureClass::kSlow : FailureClass::kWander;
+}
+
+// The failure classes of one scenario's E2 trials: per method over every density (with the
+// median executed path of the failures), and per density and method.
+std::string failureSection(const std::string& scenario, const std::vector<const Trial*>& e2,
+                           const std::vector<std::string>& order) {
+  using Counts = std::array<int, std::size(kFailureClassNames)>;
+  std::map<std::string, Counts> overall;
+  std::map<double, std::map<std::string, Counts>> by_density;
+  std::map<std::string, std::vector<double>> failed_lengths;
+  for (const Trial* t : e2) {
+    by_density[t->spec.density][t->spec.method];  // a cell for every flown configuration
+    if (t->success) continue;
+    const auto k = static_cast<size_t>(failureClass(*t));
+    ++overall[t->spec.method][k];
+    ++by_density[t->spec.density][t->spec.method][k];
+    failed_lengths[t->spec.method].push_back(t->path_length_m);
+  }
+  std::vector<std::string> header = {"method", "failures"};
+  header.insert(header.end(), std::begin(kFailureClassNames), std::end(kFailureClassNames));
+  header.push_back("median failed path [m]");
+  std::vector<std::vector<std::string>> rows;
+  for (const std::string& method : order) {
+    const Counts& counts = overall[method];
+    std::vector<std::string> row = {method, std::to_string(failed_lengths[method].size())};
+    for (int count : counts) row.push_back(std::to_string(count));
+    row.push_back(medianOrDash(failed_lengths[method]));
+    rows.push_back(row);
+  }
+  std::vector<std::string> matrix_header = {"density"};
+  matrix_header.insert(matrix_header.end(), order.begin(), order.end());
+  std::vector<std::vector<std::string>> matrix;
+  for (const auto& [density, methods] : by_density) {
+    std::vector<std::string> row = {densityText(density)};
+    for (const std::string& method : order) {
+      const auto found = methods.find(method);
+      std::string cell = "–";
+      if (found != methods.end()) {
+        cell.clear();
+        for (int count : found->second) cell += (cell.empty() ? "" : "/") + std::to_string(count);
+      }
+      row.push_back(cell);
+    }
+    matrix.push_back(row);
+  }
+  return "### How the failures failed (" + scenario +
+         ")\n\n"
+         "Every failed trial in one class: a collision; near the goal (ended less than " +
+         print("%g", kNearGoalM) +
+         " m from it); else by its executed path against the straight line from start to goal: "
+         "stall (shorter: it mostly hovered), slow (up to twice the line), wander (longer).\n\n" +
+         markdownTable(header, rows) +
+         "Per density, cells stall/slow/wander/near goal/collision:\n\n" +
+         markdownTable(matrix_header, matrix);
+}
+
 // E2 on one scenario: success per method and density, per method over every density, on the
 // worlds solvable at either oracle radius.
 std::string e2ScenarioSection(Report& report, const std::string& scenario,
@@ -811,6 +881,7 @@ std::string e2ScenarioSection(Report& report, const std::string& scenario,
           (planning_known ? successMatrix(on_planning, order, "density") : noPlanningOracle());
   text += "### Success on worlds solvable at the collision radius" + on +
           successMatrix(on_collision, order, "density");
+  text += failureSection(scenario, e2, order);
   return text;
 }
 

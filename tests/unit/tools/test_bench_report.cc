@@ -63,6 +63,7 @@ struct Row {
   bool success = false, collision = false;
   double clearance = 0.8;
   double length = 10;
+  std::optional<double> to_goal;  // the distance left to the goal; default 0.1 or 5 m (success)
   double path_time = 10, wall_time = 2;
   std::string end_reason = "replan limit";
   std::optional<double> obstacle_clearance;  // the dynamic obstacle's, when it appeared
@@ -121,8 +122,8 @@ std::string line(const Row& r, Format format = Format::kCurrent) {
   std::ostringstream s;
   s << r.experiment << "," << r.trial << "," << r.seed << "," << r.scenario << "," << density << ","
     << r.method << "," << r.goal_finding << "," << r.sensor << "," << r.replan_limit << ","
-    << r.success << "," << r.collision << "," << r.clearance << ",1,12," << (r.success ? 0.1 : 5.0)
-    << "," << r.length << ",13," << r.path_time << ",";
+    << r.success << "," << r.collision << "," << r.clearance << ",1,12,"
+    << r.to_goal.value_or(r.success ? 0.1 : 5.0) << "," << r.length << ",13," << r.path_time << ",";
   if (format == Format::kBeforePlanningOracle) {
     s << oracle.solvable_collision << ",";
   } else {
@@ -218,8 +219,14 @@ std::vector<Row> e2Rows() {
           r.length = found->second.at(seed);
           r.end_reason = "goal reached";
         } else {
-          r.length = 99;  // an unsuccessful trial's length never counts
+          r.length = 99;  // an unsuccessful trial's length never counts (in success tables)
         }
+        // Failure classes (straight line 13 m): local_exploration stalls at 0.1 seed 0 (6 m)
+        // and ends near the goal at 0.2 seed 1; random is slow at 0.2 seed 3 (20 m); every
+        // other failure wanders (99 m), or collides.
+        if (method == "local_exploration" && density == 0.1 && seed == 0) r.length = 6;
+        if (method == "local_exploration" && density == 0.2 && seed == 1) r.to_goal = 1.5;
+        if (method == "random" && density == 0.2 && seed == 3) r.length = 20;
         if ((method == "rrt_star_optimistic" || method == "nbvp") && density == 0.1 &&
             seed == (method == "nbvp" ? 1 : 0)) {
           r.collision = true;
@@ -607,6 +614,27 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
       tableAfter(md, "### Success on worlds solvable at the collision radius (paper)");
   EXPECT_SUCCESS(cell(collision, "0.1", "random"), 4, 4, 100, 51, 100);
   EXPECT_SUCCESS(cell(collision, "0.2", "random"), 2, 4, 50, 15, 85);
+
+  // How paper's failures failed: per method, and per density as stall/slow/wander/near/collision.
+  const Table failures = tableAfter(md, "### How the failures failed (paper)");
+  EXPECT_EQ(failures[0],
+            (std::vector<std::string>{"method", "failures", "stall", "slow", "wander", "near goal",
+                                      "collision", "median failed path [m]"}));
+  EXPECT_EQ(cell(failures, "local_exploration", "failures"), "4");
+  EXPECT_EQ(cell(failures, "local_exploration", "stall"), "1");
+  EXPECT_EQ(cell(failures, "local_exploration", "near goal"), "1");
+  EXPECT_EQ(cell(failures, "local_exploration", "wander"), "2");
+  EXPECT_EQ(cell(failures, "random", "slow"), "1");
+  EXPECT_EQ(cell(failures, "random", "wander"), "3");
+  EXPECT_EQ(cell(failures, "nbvp", "collision"), "1");
+  EXPECT_EQ(cell(failures, "nbvp", "wander"), "8");
+  EXPECT_EQ(cell(failures, "random", "median failed path [m]"), "99.00");
+  const Table failures_by_density =
+      tableAfter(md, "Per density, cells stall/slow/wander/near goal/collision:");
+  EXPECT_EQ(cell(failures_by_density, "0.1", "local_exploration"), "1/0/0/0/0");
+  EXPECT_EQ(cell(failures_by_density, "0.2", "local_exploration"), "0/0/2/1/0");
+  EXPECT_EQ(cell(failures_by_density, "0.2", "random"), "0/1/2/0/0");
+  EXPECT_EQ(cell(failures_by_density, "0.1", "nbvp"), "0/0/4/0/1");
 
   // E2 on eth: its own tables, after paper's.
   EXPECT_LT(md.find("## E2: goal-selection strategies on paper"),
