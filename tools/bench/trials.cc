@@ -50,10 +50,10 @@ struct Method {
   const char* planner;    // over local_planner::LocalPlannerOptions
   bool ablation = false;  // flown in E2 only, to show what one mechanism buys
 };
-// The paper's semantics, whatever config/sim ships: the vehicle faces along its velocity, no look
-// around, no stall watchdog.
+// The paper's semantics, whatever config/sim ships (frontier_memory's options): the vehicle faces
+// along its velocity, no look around, waypoints one by one (no carrot), no stall watchdog.
 constexpr const char* kPaperExplorer = "{fixed_yaw: false, look_around: {enabled: false}}";
-constexpr const char* kPaperPlanner = "{stall_cycles: 0}";
+constexpr const char* kPaperPlanner = "{carrot: false, stall_cycles: 0}";
 // Proposals flown facing their yaws, and a look around at each new stuck place.
 constexpr const char* kLookExplorer = "{fixed_yaw: true, look_around: {enabled: true}}";
 // frontier_memory's planner: its paths followed by the carrot, and the stall watchdog.
@@ -71,10 +71,12 @@ const Method kMethods[] = {
     {"frontier_memory", "frontier_memory", kLookExplorer, kMemoryPlanner},
     // Ablation: the paper's method, its candidates flown facing their yaw, a look around at each
     // new stuck place, and the stall watchdog.
-    {"local_exploration_look", "local_exploration", kLookExplorer, "{stall_cycles: 4}", true},
+    {"local_exploration_look", "local_exploration", kLookExplorer,
+     "{carrot: false, stall_cycles: 4}", true},
     // Ablation: the paper's method, its candidates only where a straight line from the vehicle
     // keeps the clearance, and never the global goal as its answer.
-    {"local_exploration_reachable", "local_exploration", "{reachable: true, p_goal: 0.0}",
+    {"local_exploration_reachable", "local_exploration",
+     "{fixed_yaw: false, look_around: {enabled: false}, reachable: true, p_goal: 0.0}",
      kPaperPlanner, true},
     // Ablations of frontier_memory: at the vehicle's height only; facing along the velocity (no
     // yaws, so no looks either); answering every request as if it were the first.

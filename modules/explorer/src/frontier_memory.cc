@@ -9,7 +9,8 @@
 // 2. Reachability. Dijkstra from the start over a grid of `grid` cells in the same box, a cell
 //    being free when its ESDF voxel is observed with at least min_clearance (near the start: the
 //    start's own clearance, so a vehicle inside the margin can leave), 26-connected, a step
-//    costing its length plus w_climb per metre climbed. The altitude band is the flight volume up
+//    costing its length (up to 1 + w_comfort times it into a cell with less than min_clearance +
+//    comfort) plus w_climb per metre climbed. The altitude band is the flight volume up
 //    to `climb` above the start (without `layers`: the start's grid layer only), so the search
 //    climbs over a bottleneck only when going around costs more.
 // 3. The answer, in order: the goal itself when it is in the box and reachable (a verified path
