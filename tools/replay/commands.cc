@@ -27,6 +27,10 @@ const std::vector<ReferenceFlight>& referenceFlights() {
       {"paper_none",
        {"paper", 0.3, 3, "none", 10},
        "no explorer: the planner alone, planned cycles, then stuck cycles that hold position"},
+      {"paper_short_frontier_memory",
+       {"paper_short", 0.5, 9, "frontier_memory", 8},
+       "beyond the paper: a look around at a stuck place, a path to a frontier viewpoint flown "
+       "facing its yaw by the carrot after turning first, a look at the viewpoint"},
       {"paper_dynamic_obstacle",
        {"paper", 0.2, 10, "local_exploration", 10, true},
        "a tree appears on the committed path: the re-check finds it blocked, commits a stop and "
