@@ -41,14 +41,15 @@ namespace {
 
 // The goal-selection methods (BENCHMARK.md, E2): the explorer strategy a method runs, or none
 // (no explorer in the graph; the planner holds when stuck), and the options it sets over the
-// shipped configuration (YAML over config/sim's explorer.yaml `explorer:` group and
-// local_planner.yaml `planner:` group). Adding a method or an ablation is adding a row.
+// shipped configuration (YAML overlays, applied in order, over config/sim's explorer.yaml
+// `explorer:` group and local_planner.yaml `planner:` group). Adding a method or an ablation is
+// adding a row.
 struct Method {
   const char* name;
-  const char* strategy;   // explorer::ExplorerOptions::strategy, or nullptr
-  const char* explorer;   // over explorer::ExplorerOptions
-  const char* planner;    // over local_planner::LocalPlannerOptions
-  bool ablation = false;  // flown in E2 only, to show what one mechanism buys
+  const char* strategy;               // explorer::ExplorerOptions::strategy, or nullptr
+  std::vector<const char*> explorer;  // over explorer::ExplorerOptions
+  std::vector<const char*> planner;   // over local_planner::LocalPlannerOptions
+  bool ablation = false;              // flown in E2 only, to show what one mechanism buys
 };
 // The paper's semantics, whatever config/sim ships (frontier_memory's options): the vehicle faces
 // along its velocity, no look around, waypoints one by one (no carrot), no stall watchdog.
@@ -56,37 +57,48 @@ constexpr const char* kPaperExplorer = "{fixed_yaw: false, look_around: {enabled
 constexpr const char* kPaperPlanner = "{carrot: false, stall_cycles: 0}";
 // Proposals flown facing their yaws, and a look around at each new stuck place.
 constexpr const char* kLookExplorer = "{fixed_yaw: true, look_around: {enabled: true}}";
+// The stall watchdog.
+constexpr const char* kWatchdog = "{stall_cycles: 4}";
 // frontier_memory's planner: its paths followed by the carrot, and the stall watchdog.
-constexpr const char* kMemoryPlanner = "{carrot: true, stall_cycles: 4}";
+const std::vector<const char*> kMemoryPlanner = {"{carrot: true}", kWatchdog};
 const Method kMethods[] = {
-    {"none", nullptr, kPaperExplorer, kPaperPlanner},
-    {"random", "random", kPaperExplorer, kPaperPlanner},
-    {"rrt_star_optimistic", "rrt_star_optimistic", kPaperExplorer, kPaperPlanner},
-    {"rrt_star_conservative", "rrt_star_conservative", kPaperExplorer, kPaperPlanner},
-    {"nbvp", "nbvp", kPaperExplorer, kPaperPlanner},
-    {"local_exploration", "local_exploration", kPaperExplorer, kPaperPlanner},
+    {"none", nullptr, {kPaperExplorer}, {kPaperPlanner}},
+    {"random", "random", {kPaperExplorer}, {kPaperPlanner}},
+    {"rrt_star_optimistic", "rrt_star_optimistic", {kPaperExplorer}, {kPaperPlanner}},
+    {"rrt_star_conservative", "rrt_star_conservative", {kPaperExplorer}, {kPaperPlanner}},
+    {"nbvp", "nbvp", {kPaperExplorer}, {kPaperPlanner}},
+    {"local_exploration", "local_exploration", {kPaperExplorer}, {kPaperPlanner}},
     // Beyond the paper: frontier viewpoints along verified paths with a memory, flown facing
     // their yaws along the path (the carrot), a look around at each new stuck place, and the stall
     // watchdog.
-    {"frontier_memory", "frontier_memory", kLookExplorer, kMemoryPlanner},
+    {"frontier_memory", "frontier_memory", {kLookExplorer}, kMemoryPlanner},
     // Ablation: the paper's method, its candidates flown facing their yaw, a look around at each
     // new stuck place, and the stall watchdog.
-    {"local_exploration_look", "local_exploration", kLookExplorer,
-     "{carrot: false, stall_cycles: 4}", true},
+    {"local_exploration_look",
+     "local_exploration",
+     {kLookExplorer},
+     {kPaperPlanner, kWatchdog},
+     true},
     // Ablation: the paper's method, its candidates only where a straight line from the vehicle
     // keeps the clearance, and never the global goal as its answer.
-    {"local_exploration_reachable", "local_exploration",
-     "{fixed_yaw: false, look_around: {enabled: false}, reachable: true, p_goal: 0.0}",
-     kPaperPlanner, true},
+    {"local_exploration_reachable",
+     "local_exploration",
+     {kPaperExplorer, "{reachable: true, p_goal: 0.0}"},
+     {kPaperPlanner},
+     true},
     // Ablations of frontier_memory: at the vehicle's height only; facing along the velocity (no
     // yaws, so no looks either); answering every request as if it were the first.
-    {"frontier_memory_flat", "frontier_memory",
-     "{fixed_yaw: true, look_around: {enabled: true}, frontier_memory: {layers: false}}",
-     kMemoryPlanner, true},
-    {"frontier_memory_no_yaw", "frontier_memory", kPaperExplorer, kMemoryPlanner, true},
-    {"frontier_memory_no_memory", "frontier_memory",
-     "{fixed_yaw: true, look_around: {enabled: true}, frontier_memory: {memory: false}}",
-     kMemoryPlanner, true},
+    {"frontier_memory_flat",
+     "frontier_memory",
+     {kLookExplorer, "{frontier_memory: {layers: false}}"},
+     kMemoryPlanner,
+     true},
+    {"frontier_memory_no_yaw", "frontier_memory", {kPaperExplorer}, kMemoryPlanner, true},
+    {"frontier_memory_no_memory",
+     "frontier_memory",
+     {kLookExplorer, "{frontier_memory: {memory: false}}"},
+     kMemoryPlanner,
+     true},
 };
 
 // The goal-finding variants of the optimization-only experiment (BENCHMARK.md, E1).
@@ -426,7 +438,9 @@ TrialGraphOptions trialGraphOptions(const std::string& method, const std::string
     explorer::ExplorerNodeOptions explorer =
         loadParams<explorer::ExplorerNodeOptions>(dir + "/explorer.yaml");
     explorer.explorer.strategy = strategy.strategy;
-    overrideParams(explorer.explorer, strategy.explorer, "method " + method);
+    for (const char* overlay : strategy.explorer) {
+      overrideParams(explorer.explorer, overlay, "method " + method);
+    }
     explorer.explorer.seed = static_cast<int64_t>(seed);
     explorer.explorer.flight_volume_min = volume_min;
     explorer.explorer.flight_volume_max = volume_max;
@@ -438,7 +452,9 @@ TrialGraphOptions trialGraphOptions(const std::string& method, const std::string
     // The explorer proposes, and its trees keep, the clearance the planner accepts.
     graph.explorer->explorer.min_clearance = node.planner.loco.requiredClearance();
   }
-  overrideParams(node.planner, strategy.planner, "method " + method);
+  for (const char* overlay : strategy.planner) {
+    overrideParams(node.planner, overlay, "method " + method);
+  }
   node.planner.goal_finder.method = variant.finder_method;
   node.planner.soft_goal = variant.soft_goal;
   node.planner.seed = static_cast<int64_t>(seed);

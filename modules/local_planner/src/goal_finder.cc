@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 namespace thicket::local_planner {
@@ -45,12 +46,12 @@ FoundGoal GoalFinder::find(const Eigen::Vector3d& start, const Eigen::Vector3d& 
     const Eigen::Vector3d back = start - found.position;
     // Gradient ascent, unless it would carry the goal behind the start (where the soft goal
     // would pull the vehicle away from its goal): then a step back along the line.
-    const Eigen::Vector3d ascent =
-        options_.method == "gradient" && sample.known && sample.gradient.norm() > 1e-6
-            ? Eigen::Vector3d(found.position + options_.step * sample.gradient.normalized())
-            : found.position;
-    if (ascent != found.position && (ascent - start).dot(offset) >= 0) {
-      found.position = ascent;
+    std::optional<Eigen::Vector3d> ascent;
+    if (options_.method == "gradient" && sample.known && sample.gradient.norm() > 1e-6) {
+      ascent = found.position + options_.step * sample.gradient.normalized();
+    }
+    if (ascent && (*ascent - start).dot(offset) >= 0) {
+      found.position = *ascent;
     } else if (back.norm() > 1e-9) {
       // Straight-line backtracking, never past the start.
       found.position += std::min(options_.step, back.norm()) * back.normalized();
