@@ -21,8 +21,9 @@
 //    cluster's distance to the goal - the start's) + w_altitude * |height - the goal's| - w_size *
 //    (the cluster's share of min(size, 50) / 50); else the way home: the most recent remembered
 //    place, at least 2 m away, that had reachable clusters, along the places flown since. Never the
-//    global goal by itself. A path is the Dijkstra path shortened by straight free segments; each
-//    waypoint faces along its segment, the viewpoint faces its cluster.
+//    global goal by itself. A path is the Dijkstra path shortened by straight free segments, each
+//    segment checked at the planner's clearance and bent around the margin of a tree it would
+//    cut; each waypoint faces along its segment, the viewpoint faces its cluster.
 //
 // Memory (off without `memory`: every request is answered as if it were the first): the places
 // requests came from and whether they had clusters (the road home); the targets proposed and how
@@ -437,8 +438,7 @@ class FrontierMemorySelector final : public GoalSelector {
     // clearance of the cells between them (capped at the comfortable one).
     const double step = 0.5 * esdf.voxelSize();
     const double comfortable = options_.min_clearance + options_.frontier_memory.comfort;
-    Proposal proposal;
-    proposal.found = true;
+    std::vector<Eigen::Vector3d> kept;
     size_t i = 0;
     while (i + 1 < cells.size()) {
       size_t j = cells.size() - 1;
@@ -449,17 +449,65 @@ class FrontierMemorySelector final : public GoalSelector {
       };
       while (j > i + 1 && !esdfSegmentFree(options_, esdf, cells[i], cells[j], needed(j), step))
         --j;
-      const Eigen::Vector3d d = cells[j] - cells[i];
-      proposal.waypoints.push_back(cells[j]);
-      proposal.yaws.push_back(std::atan2(d.y(), d.x()));
+      kept.push_back(cells[j]);
       i = j;
     }
-    if (proposal.waypoints.empty()) {
-      proposal.waypoints.push_back(target);
-      proposal.yaws.push_back(0);
+    if (kept.empty()) kept.push_back(target);
+    // Every segment is flown straight and must keep `clearance`, the ones between neighbouring
+    // cells and from the start too: two points at the edge of a tree's margin see each other
+    // across it, and the chord between them dips in. Such a segment is bent around.
+    Proposal proposal;
+    proposal.found = true;
+    Eigen::Vector3d from = start;
+    for (const Eigen::Vector3d& to : kept) {
+      if (!esdfSegmentFree(options_, esdf, from, to, clearance, step)) {
+        if (const auto bend = bendPoint(esdf, from, to, clearance, step)) {
+          proposal.waypoints.push_back(*bend);
+          proposal.yaws.push_back(std::atan2(bend->y() - from.y(), bend->x() - from.x()));
+          from = *bend;
+        }
+      }
+      proposal.waypoints.push_back(to);
+      proposal.yaws.push_back(std::atan2(to.y() - from.y(), to.x() - from.x()));
+      from = to;
     }
     if (final_yaw) proposal.yaws.back() = *final_yaw;
     return proposal;
+  }
+
+  // The point that bends a segment a-b which dips below `clearance` around the obstacle: its
+  // lowest sample pushed up the ESDF gradient to `clearance` + kBendMargin, when both halves then
+  // keep `clearance`. Nothing when the push fails (the segment stays: the planner refuses it and
+  // the target's attempts count toward its tabu).
+  std::optional<Eigen::Vector3d> bendPoint(const EsdfLayer& esdf, const Eigen::Vector3d& a,
+                                           const Eigen::Vector3d& b, double clearance,
+                                           double step) const {
+    constexpr double kBendMargin = 0.05;  // [m]
+    const int n = std::max(2, static_cast<int>(std::ceil((b - a).norm() / step)));
+    Eigen::Vector3d m = a;
+    double least = std::numeric_limits<double>::infinity();
+    for (int k = 1; k < n; ++k) {
+      const Eigen::Vector3d p = a + (b - a) * (static_cast<double>(k) / n);
+      const EsdfSample s = sampleEsdf(esdf, p);
+      if (!s.known) return std::nullopt;
+      if (s.distance < least) {
+        least = s.distance;
+        m = p;
+      }
+    }
+    const double wanted = clearance + kBendMargin;
+    for (int push = 0; push < 8; ++push) {
+      const EsdfSample s = sampleEsdf(esdf, m);
+      if (!s.known || s.gradient.norm() < 1e-6) return std::nullopt;
+      if (s.distance >= wanted) break;
+      m += (wanted - s.distance) * s.gradient.normalized();
+    }
+    if (!esdfFree(options_, esdf, m, wanted) ||
+        !esdfSegmentFree(options_, esdf, a, m, clearance, step) ||
+        !esdfSegmentFree(options_, esdf, m, b, clearance, step)) {
+      return std::nullopt;
+    }
+    return m;
   }
 
   // Frontier clusters in the box around the start and the altitude band.

@@ -1,5 +1,6 @@
 // frontier_memory on hand-built maps: a verified path to a reachable goal (around a wall, over a
-// low one only with altitude layers), toward a goal in unknown space, or else a frontier viewpoint
+// low one only with altitude layers, around the edge of a tree's margin rather than along the chord
+// that cuts it), toward a goal in unknown space, or else a frontier viewpoint
 // facing its cluster (never the goal itself), the tabu on targets asked for again from the same
 // place, the way home, determinism, and what it says without a map.
 #include <cmath>
@@ -56,6 +57,36 @@ TEST(FrontierMemory, AReachableGoalIsProposedAlongAVerifiedPath) {
   EXPECT_GE(p.waypoints.size(), 2u);  // not straight through the wall
   expectFreePath(p, r.start, map.esdf, o.min_clearance);
   EXPECT_NE(p.reason.find("path to the goal"), std::string::npos) << p.reason;
+}
+
+// A tree (a cylinder of radius 0.2 on the axis x = 0, y = 0.83) with the start at the edge of
+// its margin, 0.63 m from its surface.
+double treeBesideTheStart(const Eigen::Vector3d& p) {
+  return std::hypot(p.x(), p.y() - 0.83) - 0.2;
+}
+
+TEST(FrontierMemory, AGoalAcrossTheEdgeOfATreesMarginIsReachedAroundItNotAlongTheChord) {
+  const HandMap map = observedBox({-4, -4, 0.4}, {4, 4, 2.6}, treeBesideTheStart);
+  const ExplorerOptions o = frontierOptions();
+  ExplorationRequest r = request(1);
+  // The goal 0.5 m away, also 0.63 m from the tree: the chord to it passes 0.59 m from the tree.
+  const double a = -M_PI / 2 + 0.61;
+  r.goal = Eigen::Vector3d(0.83 * std::cos(a), 0.83 + 0.83 * std::sin(a), 1.5);
+  const Proposal p = makeGoalSelector(o)->select(r, map.view());
+  ASSERT_TRUE(p.found) << p.reason;
+  EXPECT_EQ(p.waypoints.back(), r.goal);
+  ASSERT_GE(p.waypoints.size(), 2u) << "bent around the tree";
+  // Against the analytic tree, every 2 cm (the ESDF's interpolant overestimates a convex
+  // distance by less than 1 cm between 0.2 m voxels).
+  Eigen::Vector3d from = r.start;
+  double least = 1e9;
+  for (const Eigen::Vector3d& to : p.waypoints) {
+    for (int k = 0; k <= 50; ++k)
+      least = std::min(least, treeBesideTheStart(from + (to - from) * k / 50.0));
+    from = to;
+  }
+  EXPECT_GE(least, o.min_clearance - 0.01);
+  expectFreePath(p, r.start, map.esdf, o.min_clearance + kVoxel);
 }
 
 // A thick wall x in [1.6, 3.2] with a slit |y| < 0.75 straight ahead (0.65 m of clearance in
