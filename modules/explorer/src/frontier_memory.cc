@@ -433,12 +433,26 @@ class FrontierMemorySelector final : public GoalSelector {
     }
     std::reverse(cells.begin(), cells.end());
     std::reverse(clear.begin(), clear.end());
+    // The path runs from the start itself (in place of its cell's centre) to the target, also
+    // when the target lies in the start's cell.
+    if (cells.size() == 1) {
+      cells.insert(cells.begin(), start);
+      clear.insert(clear.begin(), clear.front());
+    }
     cells.front() = start;
     // Shortcut: from each kept point, the farthest later one a straight segment reaches with the
-    // clearance of the cells between them (capped at the comfortable one).
+    // clearance of the cells between them (capped at the comfortable one). Every segment is
+    // flown straight and must keep `clearance`, the one to the next point too, unchecked by the
+    // shortcut: two points at the edge of a tree's margin see each other across it, and the chord
+    // between them dips in. Such a segment is bent around.
     const double step = 0.5 * esdf.voxelSize();
     const double comfortable = options_.min_clearance + options_.frontier_memory.comfort;
-    std::vector<Eigen::Vector3d> kept;
+    Proposal proposal;
+    proposal.found = true;
+    const auto fly = [&](const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
+      proposal.waypoints.push_back(to);
+      proposal.yaws.push_back(std::atan2(to.y() - from.y(), to.x() - from.x()));
+    };
     size_t i = 0;
     while (i + 1 < cells.size()) {
       size_t j = cells.size() - 1;
@@ -449,27 +463,15 @@ class FrontierMemorySelector final : public GoalSelector {
       };
       while (j > i + 1 && !esdfSegmentFree(options_, esdf, cells[i], cells[j], needed(j), step))
         --j;
-      kept.push_back(cells[j]);
-      i = j;
-    }
-    if (kept.empty()) kept.push_back(target);
-    // Every segment is flown straight and must keep `clearance`, the ones between neighbouring
-    // cells and from the start too: two points at the edge of a tree's margin see each other
-    // across it, and the chord between them dips in. Such a segment is bent around.
-    Proposal proposal;
-    proposal.found = true;
-    Eigen::Vector3d from = start;
-    for (const Eigen::Vector3d& to : kept) {
-      if (!esdfSegmentFree(options_, esdf, from, to, clearance, step)) {
-        if (const auto bend = bendPoint(esdf, from, to, clearance, step)) {
-          proposal.waypoints.push_back(*bend);
-          proposal.yaws.push_back(std::atan2(bend->y() - from.y(), bend->x() - from.x()));
+      Eigen::Vector3d from = cells[i];
+      if (j == i + 1 && !esdfSegmentFree(options_, esdf, from, cells[j], clearance, step)) {
+        if (const auto bend = bendPoint(esdf, from, cells[j], clearance, step)) {
+          fly(from, *bend);
           from = *bend;
         }
       }
-      proposal.waypoints.push_back(to);
-      proposal.yaws.push_back(std::atan2(to.y() - from.y(), to.x() - from.x()));
-      from = to;
+      fly(from, cells[j]);
+      i = j;
     }
     if (final_yaw) proposal.yaws.back() = *final_yaw;
     return proposal;

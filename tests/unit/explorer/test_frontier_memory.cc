@@ -86,6 +86,7 @@ TEST(FrontierMemory, AGoalAcrossTheEdgeOfATreesMarginIsReachedAroundItNotAlongTh
     from = to;
   }
   EXPECT_GE(least, o.min_clearance - 0.01);
+  // And in the ESDF the planner reads: not the voxel of dip expectFreePath allows between cells.
   expectFreePath(p, r.start, map.esdf, o.min_clearance + kVoxel);
 }
 
