@@ -81,7 +81,18 @@ bool Watchdog::stalled(int64_t goal_id, size_t waypoint, int64_t cycle,
   last_cycle_ = cycle;
   references_.push_back(reference);
   while (references_.size() > static_cast<size_t>(cycles) + 1) references_.pop_front();
-  return cycles > 0 && references_.size() == static_cast<size_t>(cycles) + 1 && moved() < distance;
+  if (cycles == 0 || references_.size() < static_cast<size_t>(cycles) + 1) return false;
+  // The whole window, then the window one cycle shorter at the same mean speed.
+  for (const int over : {cycles, cycles - 1}) {
+    const double moved =
+        (references_.back() - references_[static_cast<size_t>(cycles - over)]).norm();
+    if (over > 0 && moved < distance * over / cycles) {
+      moved_ = moved;
+      over_ = over;
+      return true;
+    }
+  }
+  return false;
 }
 
 namespace {
@@ -236,7 +247,7 @@ LocalPlanner::Tracked LocalPlanner::track(const Goal& goal, Progress& progress,
     report.goal_from_explorer = goal.from_explorer;
     report.goal = goal.waypoints[waypoint];
     report.reason = format("stalled: the reference moved %.2f m in the last %.0f cycles",
-                           progress.watchdog.moved(), options_.stall_cycles);
+                           progress.watchdog.moved(), progress.watchdog.over());
     return Tracked::kFailed;
   }
   if (look(goal, waypoint, field, report)) return Tracked::kCommitted;
@@ -437,7 +448,7 @@ bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const Distan
     // Turn first, then fly: the camera must see where the vehicle goes (a map can hold free
     // space that has since been taken), and the yaw lags at the vehicle's yaw rate.
     commit(planStop(report.utime, report.start, field, options_.loco).trajectory, yaw, report);
-    progress.watchdog.reset();
+    progress.watchdog.skip();
     report.reason =
         format("turning from yaw %.2f to %.2f rad before flying", report.vehicle_yaw, *yaw);
     return true;

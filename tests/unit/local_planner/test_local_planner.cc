@@ -1117,6 +1117,30 @@ TEST(Watchdog, CountsConsecutiveCyclesOnOneWaypointOfOneGoal) {
   bool stalled = false;
   for (int k = 0; k < 10; ++k) stalled = dithering.stalled(1, 0, k, p + (k % 2) * step, 3, 0.3);
   EXPECT_TRUE(stalled);
+  // Back and forth between two points farther apart than stall_distance is too, at either parity
+  // of the window: the reference returns to where it was.
+  for (const int cycles : {3, 4}) {
+    Watchdog swinging;
+    int first = -1;
+    for (int k = 0; k < 10 && first < 0; ++k) {
+      if (swinging.stalled(1, 0, k, p + (k % 2) * 5 * step, cycles, 0.3)) first = k;
+    }
+    EXPECT_EQ(first, cycles) << cycles;  // as soon as the window is full
+    EXPECT_NEAR(swinging.moved(), 0, 1e-12);
+    EXPECT_EQ(swinging.over(), cycles % 2 == 0 ? cycles : cycles - 1);
+  }
+  // A cycle that stops to turn before flying does not count, nor break the window.
+  Watchdog turning;
+  for (int k = 0; k < 3; ++k) EXPECT_FALSE(turning.stalled(1, 0, k, p, 3, 0.3));
+  EXPECT_TRUE(turning.stalled(1, 0, 3, p, 3, 0.3));
+  turning.skip();
+  EXPECT_TRUE(turning.stalled(1, 0, 4, p, 3, 0.3));
+  Watchdog flying;  // every other cycle stops to turn, the others fly on
+  for (int k = 0; k < 8; ++k) {
+    EXPECT_FALSE(flying.stalled(1, 0, 2 * k, p + k * 1.01 * step, 3, 0.3)) << k;
+    flying.stalled(1, 0, 2 * k + 1, p + k * 1.01 * step, 3, 0.3);
+    flying.skip();
+  }
   // 0 cycles: off.
   Watchdog off;
   for (int k = 0; k < 10; ++k) EXPECT_FALSE(off.stalled(1, 0, k, p, 0, 0.3));

@@ -129,8 +129,10 @@ struct LocalPlannerOptions {
   double yaw_tolerance = 0.2;
   /// The stall watchdog: a goal is given up (an intermediate goal dropped, the mission goal
   /// reported stuck so the explorer decides) when the reference moved less than stall_distance
-  /// over the last stall_cycles consecutive cycles tracking the same waypoint, planned or not.
-  /// 0 turns it off (the paper's planner).
+  /// over the last stall_cycles consecutive cycles tracking the same waypoint, planned or not
+  /// (cycles that stop to turn before flying do not count), or less than as much per cycle over
+  /// the last stall_cycles - 1: a back and forth between two points returns within one window or
+  /// the other, and is a stall however far apart they are. 0 turns it off (the paper's planner).
   int stall_cycles = 0;
   double stall_distance = 0.3;  ///< [m]
   /// A trajectory toward a waypoint with a yaw is flown at that yaw only when its horizontal
@@ -156,19 +158,26 @@ struct LocalPlannerOptions {
 class Watchdog {
  public:
   /// Records this cycle's reference; true when the last `cycles` cycles moved it less than
-  /// `distance` (never with cycles = 0).
+  /// `distance`, or the last `cycles` - 1 less than `distance` * (`cycles` - 1) / `cycles` (a
+  /// back and forth of any amplitude returns within one or the other); never with cycles = 0.
   bool stalled(int64_t goal_id, size_t waypoint, int64_t cycle, const Eigen::Vector3d& reference,
                int cycles, double distance);
-  /// How far the reference moved over the window, after stalled() returned true [m].
-  double moved() const { return (references_.back() - references_.front()).norm(); }
-  /// Forgets the window (a cycle that turned in place on purpose).
-  void reset() { references_.clear(); }
+  /// How far the reference moved, and over how many cycles, when stalled() last returned true.
+  double moved() const { return moved_; }
+  int over() const { return over_; }
+  /// This cycle does not count (it stopped to turn before flying on purpose): its reference is
+  /// dropped, and the window goes on with the next cycle.
+  void skip() {
+    if (!references_.empty()) references_.pop_back();
+  }
 
  private:
   int64_t goal_id_ = -1;
   size_t waypoint_ = 0;
   int64_t last_cycle_ = -1;
   std::deque<Eigen::Vector3d> references_;
+  double moved_ = 0;
+  int over_ = 0;
 };
 
 class LocalPlanner {
