@@ -55,6 +55,10 @@ struct Cluster {
   int size = 0;
 };
 
+// Viewpoints closer than this are one target: a cluster's viewpoint drifts by millimetres to
+// centimetres from one request to the next as the map around it grows [m].
+constexpr double kSameTarget = 1.0;
+
 struct Target {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   int attempts = 0;
@@ -215,7 +219,7 @@ class FrontierMemorySelector final : public GoalSelector {
       if (!mine) continue;
       ++reachable;
       if (!best || mine->score < best->score) best = mine;
-      if (o.memory && next.committed && (mine->viewpoint - *next.committed).norm() < 1.0) {
+      if (o.memory && next.committed && (mine->viewpoint - *next.committed).norm() < kSameTarget) {
         kept = mine;
       }
     }
@@ -281,7 +285,7 @@ class FrontierMemorySelector final : public GoalSelector {
     if (!next.last_start || !next.committed) return;
     if ((start - *next.last_start).norm() > options_.frontier_memory.tabu_radius) return;
     for (Target& t : next.targets) {
-      if ((t.position - *next.committed).norm() < 1e-9) ++t.attempts;
+      if ((t.position - *next.committed).norm() < kSameTarget) ++t.attempts;
     }
   }
 
@@ -302,9 +306,9 @@ class FrontierMemorySelector final : public GoalSelector {
       if (proposal.found) {
         const Eigen::Vector3d& target = proposal.waypoints.back();
         next.committed = target;
-        const bool known =
-            std::any_of(next.targets.begin(), next.targets.end(),
-                        [&](const Target& t) { return (t.position - target).norm() < 1e-9; });
+        const bool known = std::any_of(
+            next.targets.begin(), next.targets.end(),
+            [&](const Target& t) { return (t.position - target).norm() < kSameTarget; });
         if (!known) next.targets.push_back(Target{target, 0});
       }
     }
