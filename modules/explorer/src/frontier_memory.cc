@@ -28,10 +28,10 @@
 // Memory (off without `memory`: every request is answered as if it were the first): the places
 // requests came from and whether they had clusters (the road home); the targets proposed and how
 // often the vehicle asked again from about where it asked before (a target tried `tabu_attempts`
-// times is not proposed again within tabu_radius); the committed target, kept while it is still
-// among the candidates unless another scores hysteresis better. As with nbvp, the memory a request
-// writes is read only by requests of later cycles, so the answers are deterministic given the
-// sequence of requests and maps.
+// times is not proposed again within tabu_radius; targets within 1 m are one); the committed
+// target, kept while it is still among the candidates unless another scores hysteresis better. As
+// with nbvp, the memory a request writes is read only by requests of later cycles, so the answers
+// are deterministic given the sequence of requests and maps.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
