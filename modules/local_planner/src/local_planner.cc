@@ -287,8 +287,8 @@ DistanceField LocalPlanner::fenced(const DistanceField& field) const {
 
 void LocalPlanner::recheck(const DistanceField& field, CycleReport& report) {
   const double from = toSeconds(report.utime - committed_->startUtime());
-  const ClearanceCheck check =
-      checkClearance(*committed_, from, field, options_.loco.requiredClearance());
+  const ClearanceCheck check = checkClearance(
+      *committed_, from, field, options_.loco.requiredClearance(), options_.loco.escape_slack);
   if (check.clear) return;
   const Stop stop = planStop(report.utime, report.start, field, options_.loco);
   commit(stop.trajectory, committed_yaw_, report);
@@ -345,14 +345,15 @@ std::optional<std::string> LocalPlanner::optimizeToward(const SplineEnds& ends, 
 
 std::optional<LocalPlanner::Carrot> LocalPlanner::carrot(const Goal& goal, const Progress& progress,
                                                          const Eigen::Vector3d& start,
-                                                         const DistanceField& field) const {
+                                                         const DistanceField& field,
+                                                         double extra) const {
   const double step = 0.1, horizon = options_.goal_finder.horizon;
-  const double clearance = options_.loco.requiredClearance();
+  const double needed = options_.loco.requiredClearance() + extra;
   const auto freeFrom = [&](const Eigen::Vector3d& end) {
     const int n = std::max(1, static_cast<int>(std::ceil((end - start).norm() / step)));
     for (int k = 1; k <= n; ++k) {
       const EsdfSample sample = field(start + (end - start) * (static_cast<double>(k) / n));
-      if (!sample.known || sample.distance < clearance) return false;
+      if (!sample.known || sample.distance < needed) return false;
     }
     return true;
   };
@@ -377,6 +378,7 @@ std::optional<LocalPlanner::Carrot> LocalPlanner::carrot(const Goal& goal, const
     from = to;
   }
   for (auto it = points.rbegin(); it != points.rend(); ++it) {
+    if ((it->position - start).norm() <= options_.goal_tolerance) continue;  // no flight
     if (freeFrom(it->position)) return *it;
   }
   return std::nullopt;
@@ -394,11 +396,17 @@ bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const Distan
   ends.start_acceleration = report.start.acceleration;
   size_t to = waypoint;  // the waypoint the committed plan flies toward
   std::optional<std::string> refused;
-  // The carrot: a fixed end on the path, passing the waypoints before it.
+  // The carrot: a fixed end on the path, passing the waypoints before it. A segment along the
+  // clearance itself leaves the smooth trajectory to its end no room: when it bends by millimetres
+  // and misses the acceptance, a carrot reached with the collision potential's buffer as well is
+  // tried.
   report.carrot = false;
   std::optional<Carrot> c;
-  if (options_.carrot) c = carrot(goal, progress, report.start.position, field);
-  if (c && (c->position - report.start.position).norm() > options_.goal_tolerance) {
+  for (const double extra : {0.0, options_.loco.potential_buffer}) {
+    if (!options_.carrot || report.carrot) break;
+    const std::optional<Carrot> tried = carrot(goal, progress, report.start.position, field, extra);
+    if (!tried || (c && tried->position == c->position)) break;
+    c = tried;
     to = c->waypoint;
     report.goal = goal.waypoints[to];
     report.horizon_goal = ends.end_position = c->position;

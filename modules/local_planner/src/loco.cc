@@ -18,7 +18,7 @@ DistanceField esdfField(const EsdfLayer& esdf) {
 }
 
 ClearanceCheck checkClearance(const PolynomialTrajectory& trajectory, double from,
-                              const DistanceField& field, double required) {
+                              const DistanceField& field, double required, double escape_slack) {
   ClearanceCheck result;
   result.min_distance = std::numeric_limits<double>::infinity();
   const double duration = trajectory.duration();
@@ -32,7 +32,7 @@ ClearanceCheck checkClearance(const PolynomialTrajectory& trajectory, double fro
     const Eigen::Vector3d p = trajectory.evaluate(t);
     const EsdfSample e = field(p);
     const double d = e.known ? e.distance : 0.0;
-    if (k == first && e.known) result.threshold = std::min(required, d);
+    if (k == first && e.known) result.threshold = std::min(required, d - escape_slack);
     result.min_distance = std::min(result.min_distance, d);
     if (result.reason.empty() && (!e.known || d < result.threshold)) {
       char text[160];
@@ -78,6 +78,10 @@ void LocoOptions::declare(Params& p) {
     "the collision potential rises this far beyond the accepted clearance, so an optimum pressed "
     "against it passes the 0.02 s acceptance [m]",
     Range::between(0, 1));
+  p("escape_slack", escape_slack,
+    "a plan that starts inside the clearance margin, or less than this outside it, may come this "
+    "much closer than its start (and must end outside the margin); 0: never closer [m]",
+    Range::between(0, 0.01));
   p("v_max", v_max, "[m/s]", Range::positive());
   p("a_max", a_max, "[m/s^2]", Range::positive());
   p("segments", segments, "polynomial segments per trajectory", Range::between(1, 10));
@@ -178,7 +182,8 @@ LocoProblem::Check LocoProblem::check(const Derivatives& free) const {
     return result;
   }
   const double required = options_.requiredClearance();
-  const ClearanceCheck clearance = checkClearance(*trajectory, 0, field_, required);
+  const ClearanceCheck clearance =
+      checkClearance(*trajectory, 0, field_, required, options_.escape_slack);
   result.min_distance = clearance.min_distance;
   result.collision_free = clearance.clear;
   constexpr double kLimitDt = 0.01;

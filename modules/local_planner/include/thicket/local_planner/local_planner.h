@@ -248,13 +248,15 @@ class LocalPlanner {
   bool planToward(const Goal& goal, Progress& progress, const DistanceField& field,
                   CycleReport& report);
   // The carrot (LocalPlannerOptions::carrot) on `goal`'s path from `start` (through the last
-  // carrot, then the waypoints left), and the waypoint its segment of the path leads to.
+  // carrot, then the waypoints left), and the waypoint its segment of the path leads to: the
+  // farthest point beyond the goal tolerance that a segment with the clearance + `extra` reaches.
   struct Carrot {
     Eigen::Vector3d position;
     size_t waypoint;
   };
   std::optional<Carrot> carrot(const Goal& goal, const Progress& progress,
-                               const Eigen::Vector3d& start, const DistanceField& field) const;
+                               const Eigen::Vector3d& start, const DistanceField& field,
+                               double extra) const;
   // The constant yaw a trajectory toward a waypoint with `yaw` is flown at (max_yaw_offset).
   std::optional<double> flightYaw(const std::optional<double>& yaw,
                                   const PolynomialTrajectory& trajectory) const;

@@ -50,6 +50,9 @@ constexpr double kClearanceCheckDt = 0.02;
 /// that sample's own distance: a trajectory that never comes closer than where it starts passes,
 /// so a vehicle inside the margin can leave it instead of being refused every cycle, and can never
 /// be planned closer. (Loco's acceptance adds that such a plan must end outside the margin.)
+/// `escape_slack` lowers that threshold a little more, and extends the escape to starts less than
+/// that outside the margin: a vehicle at rest starts along the obstacle before the optimizer's
+/// first collision sample sees it, and dips by a hair.
 struct ClearanceCheck {
   bool clear = false;       ///< every sample known with distance >= the threshold
   double min_distance = 0;  ///< over the samples, 0 where unknown [m]
@@ -57,7 +60,7 @@ struct ClearanceCheck {
   double threshold = 0;     ///< `required`, or the first sample's distance when less (escape) [m]
 };
 ClearanceCheck checkClearance(const PolynomialTrajectory& trajectory, double from,
-                              const DistanceField& field, double required);
+                              const DistanceField& field, double required, double escape_slack = 0);
 
 /// CHOMP's collision potential of distance d (DESIGN §1) and its derivative dc/dd. With
 /// d' = d - radius: -d' + ε/2 inside the radius, (d' - ε)² / (2ε) within ε of it, 0 beyond.
@@ -85,6 +88,9 @@ struct LocoOptions {
   /// against the obstacles (the collision integral sees them every sample_dt) then still clears
   /// the acceptance, checked every 0.02 s, instead of missing it by a millimetre [m].
   double potential_buffer = 0.02;
+  /// A plan that starts inside the margin, or less than this outside it, may come this much
+  /// closer than its start (and must end outside the margin); 0: never closer (the paper) [m].
+  double escape_slack = 0;
   double v_max = 1.0;  ///< [m/s]
   double a_max = 2.0;  ///< [m/s²]
   int segments = 3;
