@@ -4,6 +4,7 @@
 // does; checkClearance samples at the trajectory's own 0.02 s grid, whatever `from` is.
 #include "thicket/local_planner/stop.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -315,6 +316,35 @@ TEST(CheckClearance, FromBeyondTheEndChecksTheEndPointOnly) {
   EXPECT_TRUE(end.clear) << end.reason;
   EXPECT_NEAR(end.threshold, 0.3, 1e-9);
   EXPECT_NEAR(end.min_distance, 0.3, 1e-9);
+}
+
+TEST(CheckClearance, EscapeSlackLetsAStartAtTheMarginComeThatMuchCloserAndNoMore) {
+  constexpr double kRequired = 0.6, kSlack = 0.002;
+  const PolynomialTrajectory line = alongX(1.0);
+  // The distance falls linearly along the line, from `start` at x = 0 by `dip` at x = 1.
+  const auto falling = [](double start, double dip) -> DistanceField {
+    return [start, dip](const Eigen::Vector3d& p) {
+      return EsdfSample{true, start - dip * std::clamp(p.x(), 0.0, 1.0), Eigen::Vector3d::Zero()};
+    };
+  };
+  struct Case {
+    double start, dip;
+    bool strict, slack;  // clear without the slack, with it
+  };
+  for (const Case& c : {
+           Case{0.601, 0.0015, false, true},    // just outside: may dip below the margin by a hair
+           Case{0.5990, 0.001, false, true},    // inside: may come the slack closer than its start
+           Case{0.5990, 0.0025, false, false},  // but not more
+           Case{0.603, 0.0035, false, false},   // farther outside than the slack: the margin holds
+           Case{0.603, 0.0025, true, true},     // and what keeps it passes either way
+       }) {
+    const DistanceField field = falling(c.start, c.dip);
+    const ClearanceCheck strict = checkClearance(line, 0, field, kRequired);
+    const ClearanceCheck slack = checkClearance(line, 0, field, kRequired, kSlack);
+    EXPECT_EQ(strict.clear, c.strict) << c.start << " " << c.dip << ": " << strict.reason;
+    EXPECT_EQ(slack.clear, c.slack) << c.start << " " << c.dip << ": " << slack.reason;
+    EXPECT_NEAR(slack.threshold, std::min(kRequired, c.start - kSlack), 1e-12);
+  }
 }
 
 TEST(CheckClearance, UnknownSamplesFail) {
