@@ -41,10 +41,13 @@ std::string configCopy(const std::string& name, const std::string& loco_option) 
   std::stringstream text;
   text << shipped.rdbuf();
   std::string yaml = text.str();
-  const std::string block = "\nplanner:\n";
+  // Into the shipped planner.loco block, or a new one.
+  const std::string block = "\nplanner:\n", loco = "\nplanner:\n  loco:\n";
   const size_t planner = yaml.find(block);
   EXPECT_NE(planner, std::string::npos) << "config/sim/local_planner.yaml has no planner block";
-  if (planner != std::string::npos) {
+  if (const size_t at = yaml.find(loco); at != std::string::npos) {
+    yaml.insert(at + loco.size(), "    " + loco_option + "\n");
+  } else if (planner != std::string::npos) {
     yaml.insert(planner + block.size(), "  loco:\n    " + loco_option + "\n");
   }
   std::ofstream(dir + "/local_planner.yaml") << yaml;
