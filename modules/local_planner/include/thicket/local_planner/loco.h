@@ -57,7 +57,8 @@ struct ClearanceCheck {
   bool clear = false;       ///< every sample known with distance >= the threshold
   double min_distance = 0;  ///< over the samples, 0 where unknown [m]
   std::string reason;       ///< the first sample that fails, in words; empty when clear
-  double threshold = 0;     ///< `required`, or the first sample's distance when less (escape) [m]
+  /// `required`, or the first sample's distance less `escape_slack` when that is less (escape) [m]
+  double threshold = 0;
 };
 ClearanceCheck checkClearance(const PolynomialTrajectory& trajectory, double from,
                               const DistanceField& field, double required, double escape_slack = 0);
