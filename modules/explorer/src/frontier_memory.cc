@@ -108,7 +108,8 @@ class Grid {
 
 class FrontierMemorySelector final : public GoalSelector {
  public:
-  explicit FrontierMemorySelector(const ExplorerOptions& options) : options_(options) {}
+  explicit FrontierMemorySelector(const ExplorerOptions& options)
+      : options_(options), gains_(options.gain) {}
   const char* name() const override { return "frontier_memory"; }
 
   Proposal select(const ExplorationRequest& request, const MapView& maps) override {
@@ -175,6 +176,55 @@ class FrontierMemorySelector final : public GoalSelector {
       proposal.reason = text;
       remember(request, next, proposal, true);
       return proposal;
+    }
+
+    // Else climb to look toward the goal: over a wall of trees the space is unknown until the
+    // camera is high enough to see it, and the viewpoints of the clusters seen so far lie below.
+    if (o.layers && o.climb_look > 0) {
+      const Eigen::Vector3d to_goal = request.goal - request.start;
+      const double yaw = std::atan2(to_goal.y(), to_goal.x());
+      const ExplorationGain& gain = gains_.forVoxelSize(maps.tsdf->voxelSize());
+      // The highest reached cell of each column within 3 m, 0.8 m or more above the start.
+      std::map<std::pair<int, int>, int> top;
+      for (int i = 0; i < grid.count(); ++i) {
+        if (!std::isfinite(cost[static_cast<size_t>(i)])) continue;
+        const Eigen::Vector3d c = grid.center(i);
+        if (c.z() < request.start.z() + 0.8 || (c - request.start).head<2>().norm() > 3.0) continue;
+        const Eigen::Vector3i cell = grid.cellOf(i);
+        auto [it, fresh] = top.try_emplace({cell.x(), cell.y()}, i);
+        if (!fresh && grid.center(it->second).z() < c.z()) it->second = i;
+      }
+      std::vector<int> candidates;
+      for (const auto& [xy, i] : top) candidates.push_back(i);
+      std::sort(candidates.begin(), candidates.end(), [&](int x, int y) {
+        return grid.center(x).z() > grid.center(y).z() ||
+               (grid.center(x).z() == grid.center(y).z() && x < y);
+      });
+      if (candidates.size() > 12) candidates.resize(12);
+      std::optional<std::pair<double, Eigen::Vector3d>> best_up;
+      for (const int i : candidates) {
+        const Eigen::Vector3d up = grid.center(i);
+        if (o.memory && tabu(next, up)) continue;
+        const Gain g = gain.visibleUnknownFraction(*maps.tsdf, ExplorationGain::cameraAt(up, yaw),
+                                                   options_.look_around.subsample);
+        ++proposal.gain_evaluations;
+        if (g.unknown_fraction >= o.climb_look &&
+            (!best_up || g.unknown_fraction > best_up->first)) {
+          best_up = {g.unknown_fraction, up};
+        }
+      }
+      if (best_up) {
+        const Eigen::Vector3d up = best_up->second;
+        proposal =
+            pathProposal(grid, reached, *maps.esdf, request.start, up, yaw, *start_clearance);
+        char text[160];
+        std::snprintf(text, sizeof(text),
+                      "climb to (%.1f, %.1f, %.1f) to look toward the goal (%.0f %% unknown)",
+                      up.x(), up.y(), up.z(), 100 * best_up->first);
+        proposal.reason = text;
+        remember(request, next, proposal, true);
+        return proposal;
+      }
     }
 
     const std::vector<Cluster> clusters = frontierClusters(*maps.tsdf, request.start);
@@ -592,6 +642,7 @@ class FrontierMemorySelector final : public GoalSelector {
   }
 
   ExplorerOptions options_;
+  GainCache gains_;
   Memory memory_, written_;
   int64_t written_cycle_ = std::numeric_limits<int64_t>::min();
 };

@@ -67,6 +67,11 @@ void FrontierMemoryOptions::declare(Params& p) {
   p("w_size", w_size, "weight of the cluster's size", Range::atLeast(0));
   p("hysteresis", hysteresis, "the committed target stands unless another scores this better",
     Range::atLeast(0));
+  p("climb_look", climb_look,
+    "with layers, when no verified path makes progress: first climb to the reached cell 0.8 m or "
+    "more above the start, within 3 m, whose view toward the goal is the most unknown, if at "
+    "least this fraction; 0: never",
+    Range::between(0, 1));
   p("tabu_attempts", tabu_attempts, "a target asked again from its request's place this often ...",
     Range::between(1, 1000));
   p("tabu_radius", tabu_radius, "... is not proposed again within this [m]", Range::positive());
@@ -279,8 +284,8 @@ bool frontierMemoryOptionsValid(const FrontierMemoryOptions& f) {
          f.min_frontier >= 1 && nonNegative(f.climb) && nonNegative(f.w_goal) &&
          nonNegative(f.w_climb) && nonNegative(f.comfort) && nonNegative(f.w_comfort) &&
          nonNegative(f.w_altitude) && nonNegative(f.w_size) && nonNegative(f.hysteresis) &&
-         positive(f.progress) && f.tabu_attempts >= 1 && positive(f.tabu_radius) &&
-         f.radius / f.grid <= 200;
+         f.climb_look >= 0 && f.climb_look <= 1 && positive(f.progress) && f.tabu_attempts >= 1 &&
+         positive(f.tabu_radius) && f.radius / f.grid <= 200;
 }
 
 std::unique_ptr<GoalSelector> makeStrategy(const ExplorerOptions& o) {

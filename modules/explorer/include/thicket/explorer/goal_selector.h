@@ -127,9 +127,13 @@ struct FrontierMemoryOptions {
   /// up to 1 + w_comfort times its length, and shortcuts keep the clearance of what they replace.
   double comfort = 0.2;
   double w_comfort = 2.0;
-  double w_altitude = 0.3;   ///< weight of the viewpoint's height difference to the goal
-  double w_size = 1.0;       ///< weight of the cluster's size
-  double hysteresis = 1.0;   ///< the committed target stands unless another scores this better
+  double w_altitude = 0.3;  ///< weight of the viewpoint's height difference to the goal
+  double w_size = 1.0;      ///< weight of the cluster's size
+  double hysteresis = 1.0;  ///< the committed target stands unless another scores this better
+  /// With layers: when no verified path makes progress, first climb to the reached cell (0.8 m or
+  /// more above the start, within 3 m of it) whose view toward the goal holds the most unknown
+  /// space, if at least this fraction; 0: never.
+  double climb_look = 0.3;
   int tabu_attempts = 2;     ///< a target asked again from its request's place this often ...
   double tabu_radius = 1.5;  ///< ... is not proposed again within this [m]
 
