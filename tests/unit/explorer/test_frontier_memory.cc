@@ -195,6 +195,29 @@ TEST(FrontierMemory, ItClimbsOverALowWallOnlyWithAltitudeLayers) {
   }
 }
 
+TEST(FrontierMemory, WithNoWayForwardItClimbsToLookTowardTheGoalFirst) {
+  // Observed only up to x = 1.2 and z = 3.4 (free): no cell is 2 m nearer the goal, and the view
+  // toward it is unknown from up high as from here.
+  const HandMap map = observedBox({-4, -4, 0.4}, {1.2, 4, 3.4});
+  ExplorerOptions o = frontierOptions();
+  const ExplorationRequest r = request(1);
+  const Proposal climb = makeGoalSelector(o)->select(r, map.view());
+  ASSERT_TRUE(climb.found) << climb.reason;
+  EXPECT_NE(climb.reason.find("climb to"), std::string::npos) << climb.reason;
+  const Eigen::Vector3d up = climb.waypoints.back();
+  EXPECT_GE(up.z(), r.start.z() + 0.8 - 1e-9);
+  EXPECT_LE((up - r.start).head<2>().norm(), 3.0 + 1e-9);
+  EXPECT_NEAR(climb.yaws.back(), std::atan2(r.goal.y() - r.start.y(), r.goal.x() - r.start.x()),
+              1e-12);
+  expectFreePath(climb, r.start, map.esdf, o.min_clearance);
+
+  // Without it (or without layers), a frontier viewpoint at about the start's height.
+  o.frontier_memory.climb_look = 0;
+  const Proposal view = makeGoalSelector(o)->select(r, map.view());
+  ASSERT_TRUE(view.found) << view.reason;
+  EXPECT_NE(view.reason.find("viewpoint"), std::string::npos) << view.reason;
+}
+
 TEST(FrontierMemory, ATargetAskedForAgainFromTheSamePlaceBecomesTabu) {
   const HandMap map = observedBox({-4, -4, 0.4}, {4, 4, 2.6});
   ExplorerOptions o = frontierOptions();
