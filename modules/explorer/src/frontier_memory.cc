@@ -15,15 +15,20 @@
 //    climbs over a bottleneck only when going around costs more.
 // 3. The answer, in order: the goal itself when it is in the box and reachable (a verified path
 //    to it); else the reached cell nearest the goal when it is `progress` nearer than the start
-//    (a verified path toward it); else the best viewpoint: for each cluster, cells on rings around
-//    it (1.5 and 2.5 m, 8 bearings, at the cluster's height) that are reached and see the cluster
-//    (the segment to it crosses no surface), facing it; scored by path cost + w_goal * (the
-//    cluster's distance to the goal - the start's) + w_altitude * |height - the goal's| - w_size *
-//    (the cluster's share of min(size, 50) / 50); else the way home: the most recent remembered
-//    place, at least 2 m away, that had reachable clusters, along the places flown since. Never the
-//    global goal by itself. A path is the Dijkstra path shortened by straight free segments, each
-//    segment checked at the planner's clearance and bent around the margin of a tree it would
-//    cut; each waypoint faces along its segment, the viewpoint faces its cluster.
+//    (a verified path toward it); else, with layers, a climb to look toward the goal: of the
+//    reached cells 0.8 m or more above the start within 3 m (the highest of each column, the 12
+//    highest), the one whose view toward the goal holds the most unknown space, if at least
+//    `climb_look` (over a wall of trees the space stays unknown until the camera is high enough,
+//    and the clusters seen so far have their viewpoints below); else the best viewpoint: for each
+//    cluster, cells on rings around it (1.5 and 2.5 m, 8 bearings, at the cluster's height) that
+//    are reached and see the cluster (the segment to it crosses no surface), facing it; scored by
+//    path cost + w_goal * (the cluster's distance to the goal - the start's) + w_altitude *
+//    |height - the goal's| - w_size * (the cluster's share of min(size, 50) / 50); else the way
+//    home: the most recent remembered place, at least 2 m away, that had reachable clusters, along
+//    the places flown since. Never the global goal by itself. A path is the Dijkstra path
+//    shortened by straight free segments, each segment checked at the planner's clearance and bent
+//    around the margin of a tree it would cut; each waypoint faces along its segment, the
+//    viewpoint faces its cluster, the climb faces the goal.
 //
 // Memory (off without `memory`: every request is answered as if it were the first): the places
 // requests came from and whether they had clusters (the road home); the targets proposed and how

@@ -1,8 +1,8 @@
 // frontier_memory on hand-built maps: a verified path to a reachable goal (around a wall, over a
 // low one only with altitude layers, around the edge of a tree's margin rather than along the chord
-// that cuts it), toward a goal in unknown space, or else a frontier viewpoint
-// facing its cluster (never the goal itself), the tabu on targets asked for again from the same
-// place, the way home, determinism, and what it says without a map.
+// that cuts it), toward a goal in unknown space, a climb to look toward it, or else a frontier
+// viewpoint facing its cluster (never the goal itself), the tabu on targets asked for again from
+// the same place, the way home, determinism, and what it says without a map.
 #include <cmath>
 #include <string>
 #include <vector>
