@@ -147,11 +147,18 @@ class FrontierMemorySelector final : public GoalSelector {
                             : std::numeric_limits<double>::infinity();
     };
 
+    // The answer along the path to `target`, keeping the count of the gain evaluations so far.
+    const auto pathTo = [&](const Eigen::Vector3d& target, std::optional<double> final_yaw) {
+      Proposal path = pathProposal(grid, reached, *maps.esdf, request.start, target, final_yaw,
+                                   *start_clearance);
+      path.gain_evaluations = proposal.gain_evaluations;
+      return path;
+    };
+
     // A verified path to the goal.
     if (std::isfinite(costAt(request.goal)) &&
         esdfFree(options_, *maps.esdf, request.goal, options_.min_clearance)) {
-      proposal = pathProposal(grid, reached, *maps.esdf, request.start, request.goal, std::nullopt,
-                              *start_clearance);
+      proposal = pathTo(request.goal, std::nullopt);
       proposal.reason = "a verified path to the goal";
       remember(request, next, proposal, true);
       return proposal;
@@ -172,8 +179,7 @@ class FrontierMemorySelector final : public GoalSelector {
     if (nearest >= 0) {
       const Eigen::Vector3d target = grid.center(nearest);
       const Eigen::Vector3d ahead = request.goal - target;
-      proposal = pathProposal(grid, reached, *maps.esdf, request.start, target,
-                              std::atan2(ahead.y(), ahead.x()), *start_clearance);
+      proposal = pathTo(target, std::atan2(ahead.y(), ahead.x()));
       char text[160];
       std::snprintf(text, sizeof(text),
                     "a verified path toward the goal, to (%.1f, %.1f, %.1f), %.1f m nearer it",
@@ -220,8 +226,7 @@ class FrontierMemorySelector final : public GoalSelector {
       }
       if (best_up) {
         const Eigen::Vector3d up = best_up->second;
-        proposal =
-            pathProposal(grid, reached, *maps.esdf, request.start, up, yaw, *start_clearance);
+        proposal = pathTo(up, yaw);
         char text[160];
         std::snprintf(text, sizeof(text),
                       "climb to (%.1f, %.1f, %.1f) to look toward the goal (%.0f %% unknown)",
@@ -282,8 +287,7 @@ class FrontierMemorySelector final : public GoalSelector {
       // Hysteresis: the committed target stands unless another is clearly better.
       const Candidate chosen = kept && kept->score <= best->score + o.hysteresis ? *kept : *best;
       const Eigen::Vector3d look = chosen.centroid - chosen.viewpoint;
-      proposal = pathProposal(grid, reached, *maps.esdf, request.start, chosen.viewpoint,
-                              std::atan2(look.y(), look.x()), *start_clearance);
+      proposal = pathTo(chosen.viewpoint, std::atan2(look.y(), look.x()));
       proposal.score = chosen.score;
       char text[200];
       std::snprintf(text, sizeof(text),

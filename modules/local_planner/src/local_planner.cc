@@ -403,7 +403,7 @@ bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const Distan
   report.carrot = false;
   std::optional<Carrot> c;
   for (const double extra : {0.0, options_.loco.potential_buffer}) {
-    if (!options_.carrot || report.carrot) break;
+    if (!options_.carrot || report.carrot) break;  // off, or the first carrot was flown
     const std::optional<Carrot> tried = carrot(goal, progress, report.start.position, field, extra);
     if (!tried || (c && tried->position == c->position)) break;
     c = tried;

@@ -204,6 +204,7 @@ TEST(FrontierMemory, WithNoWayForwardItClimbsToLookTowardTheGoalFirst) {
   const Proposal climb = makeGoalSelector(o)->select(r, map.view());
   ASSERT_TRUE(climb.found) << climb.reason;
   EXPECT_NE(climb.reason.find("climb to"), std::string::npos) << climb.reason;
+  EXPECT_GT(climb.gain_evaluations, 0);  // the views it compared are counted
   const Eigen::Vector3d up = climb.waypoints.back();
   EXPECT_GE(up.z(), r.start.z() + 0.8 - 1e-9);
   EXPECT_LE((up - r.start).head<2>().norm(), 3.0 + 1e-9);
