@@ -894,79 +894,83 @@ std::string e2Section(Report& report, const std::vector<Trial>& trials) {
   return text;
 }
 
-// E3 on one scenario's E2 trials: the table of mean path lengths on the worlds both random and
-// local_exploration solved, and the figure's data (density, pairs, the two means); empty when
-// either method flew none of its worlds.
+// E3 on one scenario's E2 trials: the table of mean path lengths of method `a` and method `b` on
+// the worlds both solved, and the figure's data (density, pairs, the two means); empty when either
+// method flew none of its worlds.
 struct E3Table {
   std::string text, csv;
 };
-std::optional<E3Table> e3Table(const std::vector<const Trial*>& e2) {
+std::optional<E3Table> e3Table(const std::vector<const Trial*>& e2, const std::string& a,
+                               const std::string& b) {
   // A world is (density, seed) flown with the same goal finding and sensor.
-  std::map<std::string, std::pair<const Trial*, const Trial*>> worlds;  // random, local_exploration
-  Tally random_success, le_success;
+  std::map<std::string, std::pair<const Trial*, const Trial*>> worlds;  // a, b
+  Tally a_success, b_success;
   for (const Trial* t : e2) {
     const std::string world = densityText(t->spec.density) + "/" + t->spec.goal_finding + "/" +
                               t->spec.sensor + "/" + std::to_string(t->spec.seed);
-    if (t->spec.method == "random") {
+    if (t->spec.method == a) {
       worlds[world].first = t;
-      random_success.add(t->success);
-    } else if (t->spec.method == "local_exploration") {
+      a_success.add(t->success);
+    } else if (t->spec.method == b) {
       worlds[world].second = t;
-      le_success.add(t->success);
+      b_success.add(t->success);
     }
   }
-  if (random_success.trials == 0 || le_success.trials == 0) return std::nullopt;
+  if (a_success.trials == 0 || b_success.trials == 0) return std::nullopt;
 
   struct Sums {
     int pairs = 0;
-    double random = 0, local = 0;
+    double a = 0, b = 0;
   };
   std::map<double, Sums> by_density;
   Sums total;
   for (const auto& [world, pair] : worlds) {
-    const auto [random, local] = pair;
-    if (!random || !local || !random->success || !local->success) continue;
-    for (Sums* s : {&by_density[random->spec.density], &total}) {
+    const auto [ta, tb] = pair;
+    if (!ta || !tb || !ta->success || !tb->success) continue;
+    for (Sums* s : {&by_density[ta->spec.density], &total}) {
       ++s->pairs;
-      s->random += random->path_length_m;
-      s->local += local->path_length_m;
+      s->a += ta->path_length_m;
+      s->b += tb->path_length_m;
     }
   }
   E3Table table;
-  table.text = "Success over every E2 world of the scenario: random " +
-               successCell(random_success) + ", local_exploration " + successCell(le_success) +
-               ".\n\n";
+  table.text = "Success over every E2 world of the scenario: " + a + " " + successCell(a_success) +
+               ", " + b + " " + successCell(b_success) + ".\n\n";
   if (total.pairs == 0) {
     table.text += "No world was solved by both methods.\n\n";
     return table;
   }
   auto row = [](const std::string& label, const Sums& s) {
-    const double random = s.random / s.pairs, local = s.local / s.pairs;
-    return std::vector<std::string>{
-        label,         std::to_string(s.pairs),       meters(random),
-        meters(local), print("%.3f", local / random), print("%.1f %%", 100 * (1 - local / random))};
+    const double mean_a = s.a / s.pairs, mean_b = s.b / s.pairs;
+    return std::vector<std::string>{label,
+                                    std::to_string(s.pairs),
+                                    meters(mean_a),
+                                    meters(mean_b),
+                                    print("%.3f", mean_b / mean_a),
+                                    print("%.1f %%", 100 * (1 - mean_b / mean_a))};
   };
   std::vector<std::vector<std::string>> rows;
-  table.csv = "density,pairs,random_mean_m,local_exploration_mean_m\n";
+  table.csv = "density,pairs," + a + "_mean_m," + b + "_mean_m\n";
   for (const auto& [density, s] : by_density) {
     rows.push_back(row(densityText(density), s));
     table.csv += densityText(density) + "," + std::to_string(s.pairs) +
-                 print(",%.6f,%.6f\n", s.random / s.pairs, s.local / s.pairs);
+                 print(",%.6f,%.6f\n", s.a / s.pairs, s.b / s.pairs);
   }
   rows.push_back(row("all", total));
-  table.text += markdownTable(
-      {"density", "worlds both solved", "random mean [m]", "local_exploration mean [m]",
-       "ratio (local_exploration / random)", "local_exploration shorter by"},
-      rows);
+  table.text += markdownTable({"density", "worlds both solved", a + " mean [m]", b + " mean [m]",
+                               "ratio (" + b + " / " + a + ")", b + " shorter by"},
+                              rows);
   return table;
 }
 
 // E3 on the paper's world (its claim) with the figure; other scenarios' E2 trials each get a
-// table of their own below it.
+// table of their own below it. Then frontier_memory's paths against both of the claim's methods,
+// per scenario, where it was flown.
 std::string e3Section(Report& report, const std::vector<Trial>& trials) {
   std::string text;
-  for (const auto& [scenario, e2] : byScenario(select(trials, "E2"))) {
-    const std::optional<E3Table> table = e3Table(e2);
+  const auto scenarios = byScenario(select(trials, "E2"));
+  for (const auto& [scenario, e2] : scenarios) {
+    const std::optional<E3Table> table = e3Table(e2, "random", "local_exploration");
     if (!table) continue;
     if (text.empty()) {
       text =
@@ -981,6 +985,14 @@ std::string e3Section(Report& report, const std::vector<Trial>& trials) {
       report.figureData("e3_path_length.png", "e3_path_length.csv", table->csv);
       text += report.image("e3_path_length.png",
                            "E3: mean path length per density on " + std::string(kPaperScenario));
+    }
+  }
+  for (const auto& [scenario, e2] : scenarios) {
+    for (const char* other : {"random", "local_exploration"}) {
+      const std::optional<E3Table> table = e3Table(e2, other, "frontier_memory");
+      if (!table) continue;
+      text += "### E3 on " + scenario + ": frontier_memory against " + other + "\n\n" +
+              "On the E2 worlds both solved.\n\n" + table->text;
     }
   }
   return text;

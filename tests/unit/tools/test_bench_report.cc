@@ -792,6 +792,59 @@ TEST_F(BenchReport, AbsentExperimentsAreOmitted) {
   EXPECT_EQ(read(out + "/figures/notes.txt"), "mine");
 }
 
+// E3 also compares frontier_memory's paths with random's and local_exploration's, each on the
+// worlds that pair solved: e2Rows' random and local_exploration, and frontier_memory solving paper
+// 0.1 seeds 0-4 (12-16 m) and 0.2 seed 1 (28 m).
+TEST_F(BenchReport, E3ComparesFrontierMemoryWithRandomAndLocalExploration) {
+  const std::string out = tempPath("out");
+  std::string text = header();
+  for (const Row& r : e2Rows()) text += line(r);
+  for (double density : {0.1, 0.2}) {
+    for (int seed = 0; seed < 5; ++seed) {
+      Row r;
+      r.method = "frontier_memory";
+      r.density = density;
+      r.trial = seed;
+      r.seed = seed;
+      r.success = density == 0.1 || seed == 1;
+      r.length = density == 0.1 ? 12 + seed : (seed == 1 ? 28 : 99);
+      r.end_reason = r.success ? "goal reached" : "replan limit";
+      text += line(r);
+    }
+  }
+  write(out + "/trials.csv", text);
+  ASSERT_EQ(writeReport(out), "");
+  const std::string md = read(out + "/summary.md");
+  // The claim's table stays random against local_exploration.
+  EXPECT_EQ(cell(tableAfter(md, "### E3 on paper"), "all", "local_exploration mean [m]"), "18.25");
+
+  // Against random: 0.1 seeds 0-3 (random 23 m, frontier_memory 13.5 m), 0.2 seed 1 (34, 28 m).
+  const Table random = tableAfter(md, "### E3 on paper: frontier_memory against random");
+  ASSERT_FALSE(random.empty());
+  EXPECT_EQ(random[0],
+            (std::vector<std::string>{
+                "density", "worlds both solved", "random mean [m]", "frontier_memory mean [m]",
+                "ratio (frontier_memory / random)", "frontier_memory shorter by"}));
+  EXPECT_EQ(cell(random, "0.1", "worlds both solved"), "4");
+  EXPECT_EQ(cell(random, "0.1", "random mean [m]"), "23.00");
+  EXPECT_EQ(cell(random, "0.1", "frontier_memory mean [m]"), "13.50");
+  EXPECT_EQ(cell(random, "0.2", "frontier_memory mean [m]"), "28.00");
+  EXPECT_EQ(cell(random, "all", "worlds both solved"), "5");
+  EXPECT_EQ(cell(random, "all", "random mean [m]"), "25.20");
+  EXPECT_EQ(cell(random, "all", "frontier_memory mean [m]"), "16.40");
+
+  // Against local_exploration: 0.1 seeds 1-4 (16.5 m, 14.5 m); at 0.2 no world both solved.
+  const Table local = tableAfter(md, "### E3 on paper: frontier_memory against local_exploration");
+  EXPECT_EQ(cell(local, "0.1", "worlds both solved"), "4");
+  EXPECT_EQ(cell(local, "0.1", "local_exploration mean [m]"), "16.50");
+  EXPECT_EQ(cell(local, "0.1", "frontier_memory mean [m]"), "14.50");
+  EXPECT_EQ(cell(local, "0.2", "worlds both solved"), "<no row 0.2>");
+  EXPECT_EQ(cell(local, "all", "frontier_memory shorter by"), "12.1 %");
+  // The figure's data stays the claim's pair.
+  EXPECT_EQ(read(out + "/figures/e3_path_length.csv").substr(0, 49),
+            "density,pairs,random_mean_m,local_exploration_mea");
+}
+
 TEST_F(BenchReport, SummaryIsWrittenWhenFiguresFail) {
   const std::string out = writeFolder();
   ReportOptions options;
