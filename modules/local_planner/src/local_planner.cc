@@ -419,11 +419,23 @@ bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const Distan
     report.goal = target;
     const FoundGoal found = goal_finder_.find(report.start.position, target, field);
     report.horizon_goal = ends.end_position = found.position;
+    // No plan without a free horizon goal (unless the soft goal may end short of one), nor from
+    // a search that came back to the start itself (the line ahead unknown or blocked, no gradient
+    // to follow): a spline of no length has no shape to optimize.
+    std::optional<std::string> no_goal;
     if (!found.free && !options_.soft_goal) {
+      no_goal = format("no free horizon goal found; the search ended at (%.2f, %.2f, %.2f)",
+                       found.position.x(), found.position.y(), found.position.z());
+    } else if (found.steps > 0 && found.position == report.start.position) {
+      no_goal = format(
+          "no horizon goal away from the start: the search toward (%.2f, %.2f, "
+          "%.2f) came back to it",
+          target.x(), target.y(), target.z());
+    }
+    if (no_goal) {
       report.loco = LocoResult{};
       report.solve_ms += now_ms_() - t0;
-      report.reason = format("no free horizon goal found; the search ended at (%.2f, %.2f, %.2f)",
-                             found.position.x(), found.position.y(), found.position.z());
+      report.reason = *no_goal;
       return false;
     }
     refused = optimizeToward(ends, options_.soft_goal, target, field, report);

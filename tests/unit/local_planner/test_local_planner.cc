@@ -826,6 +826,37 @@ TEST(LocalPlanner, AThickWallIsStuckTooNotPlannedInPlace) {
   EXPECT_LT(stuck->start.position.x(), 2.5 - pilot.planner.options().loco.robot_radius);
 }
 
+// Unknown space from 5 cm ahead of the vehicle on: the horizon goal's search backs along the line
+// to the start itself (unknown space has no gradient). A plan toward the start goes nowhere:
+// stuck, with a reason that says so, and no optimization of a spline of no length (which broke
+// down to a trajectory through the origin).
+TEST(LocalPlanner, ASearchBackToTheStartIsStuckWithoutOptimizing) {
+  LocalPlanner planner({});
+  ASSERT_FALSE(planner.setMissionGoal(goalAt(1, {kMission})));
+  const DistanceField free = freeSpace();
+  const DistanceField field = [&free](const Eigen::Vector3d& p) {
+    EsdfSample sample = free(p);
+    if (p.x() > kStart.x() + 0.05) sample = EsdfSample{};
+    return sample;
+  };
+  const CycleReport report = planner.plan(kT0, &field, kT0, 1, stateAt(kT0, kStart));
+  EXPECT_EQ(report.state, CycleState::kStuck);
+  EXPECT_TRUE(contains(report.reason, "no horizon goal away from the start")) << report.reason;
+  EXPECT_EQ(report.loco.iterations, 0);
+  ASSERT_TRUE(report.trajectory);  // a hover where it is
+  EXPECT_NEAR((report.trajectory->evaluate(report.trajectory->duration()) - kStart).norm(), 0,
+              1e-9);
+  // With the unknown space 2 m ahead, the horizon goal lies before it and the vehicle flies.
+  const DistanceField farther = [&free](const Eigen::Vector3d& p) {
+    EsdfSample sample = free(p);
+    if (p.x() > kStart.x() + 2.0) sample = EsdfSample{};
+    return sample;
+  };
+  LocalPlanner other({});
+  ASSERT_FALSE(other.setMissionGoal(goalAt(1, {kMission})));
+  EXPECT_EQ(other.plan(kT0, &farther, kT0, 1, stateAt(kT0, kStart)).state, CycleState::kPlanned);
+}
+
 LocalPlannerOptions withExplorer() {
   LocalPlannerOptions options;
   options.use_explorer = true;
