@@ -107,7 +107,7 @@ double slitAndOpening(const Eigen::Vector3d& p) {
   return dx == 0 ? -dy : std::hypot(dx, -dy);
 }
 
-TEST(FrontierMemory, PathsKeepToWideGapsAndTakeANarrowOneOnlyWhenNothingElseIsNear) {
+TEST(FrontierMemory, PathsTakeAWideGapWhenItsDetourCostsLessThanTheNarrowOnesDiscomfort) {
   const HandMap map = observedBox({-4, -4, 0.4}, {9, 6, 2.6}, slitAndOpening);
   ExplorationRequest r = request(1);
   r.goal = Eigen::Vector3d(6, 0, 1.5);
@@ -117,11 +117,20 @@ TEST(FrontierMemory, PathsKeepToWideGapsAndTakeANarrowOneOnlyWhenNothingElseIsNe
     return y;
   };
   ExplorerOptions o = frontierOptions();
+  // The opening is a detour of about 2.6 m; the slit's 1.6 m cost up to 1 + w_comfort times their
+  // length: at w_comfort 2 the opening is the cheaper, at the default (1) the slit.
+  o.frontier_memory.w_comfort = 2.0;
   const Proposal comfortable = makeGoalSelector(o)->select(r, map.view());
   ASSERT_TRUE(comfortable.found) << comfortable.reason;
   EXPECT_EQ(comfortable.waypoints.back(), r.goal);
   EXPECT_GT(widest(comfortable), 1.9) << "through the opening";
   expectFreePath(comfortable, r.start, map.esdf, o.min_clearance);
+
+  o.frontier_memory.w_comfort = ExplorerOptions{}.frontier_memory.w_comfort;
+  const Proposal by_default = makeGoalSelector(o)->select(r, map.view());
+  ASSERT_TRUE(by_default.found) << by_default.reason;
+  EXPECT_LT(widest(by_default), 0.5) << "through the slit";
+  expectFreePath(by_default, r.start, map.esdf, o.min_clearance);
 
   o.frontier_memory.comfort = 0;  // shortest: through the slit
   const Proposal shortest = makeGoalSelector(o)->select(r, map.view());

@@ -126,7 +126,7 @@ struct FrontierMemoryOptions {
   /// Paths prefer this much clearance above min_clearance [m]: a step into a cell with less costs
   /// up to 1 + w_comfort times its length, and shortcuts keep the clearance of what they replace.
   double comfort = 0.2;
-  double w_comfort = 2.0;
+  double w_comfort = 1.0;
   double w_altitude = 0.3;  ///< weight of the viewpoint's height difference to the goal
   double w_size = 1.0;      ///< weight of the cluster's size
   double hysteresis = 1.0;  ///< the committed target stands unless another scores this better
