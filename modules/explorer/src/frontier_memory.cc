@@ -216,13 +216,12 @@ class FrontierMemorySelector final : public GoalSelector {
       for (const int i : candidates) {
         const Eigen::Vector3d up = grid.center(i);
         if (o.memory && tabu(next, up)) continue;
-        const Gain g = gain.visibleUnknownFraction(*maps.tsdf, ExplorationGain::cameraAt(up, yaw),
-                                                   options_.look_around.subsample);
+        // At least climb_look and more than the best so far, or the view is not worth finishing.
+        const std::optional<Gain> g = gain.visibleUnknownFractionIfAbove(
+            *maps.tsdf, ExplorationGain::cameraAt(up, yaw), options_.look_around.subsample,
+            o.climb_look, best_up ? best_up->first : -1.0);
         ++proposal.gain_evaluations;
-        if (g.unknown_fraction >= o.climb_look &&
-            (!best_up || g.unknown_fraction > best_up->first)) {
-          best_up = {g.unknown_fraction, up};
-        }
+        if (g) best_up = {g->unknown_fraction, up};
       }
       if (best_up) {
         const Eigen::Vector3d up = best_up->second;

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -261,21 +262,39 @@ Gain ExplorationGain::unknownFraction(const TsdfLayer& tsdf, const Pose& world_T
 
 Gain ExplorationGain::visibleUnknownFraction(const TsdfLayer& tsdf, const Pose& world_T_camera,
                                              int stride) const {
+  // Every fraction is at least 0 and more than -1: nothing stops the walk.
+  return *visibleUnknownFractionIfAbove(tsdf, world_T_camera, stride, 0.0, -1.0);
+}
+
+std::optional<Gain> ExplorationGain::visibleUnknownFractionIfAbove(const TsdfLayer& tsdf,
+                                                                   const Pose& world_T_camera,
+                                                                   int stride, double at_least,
+                                                                   double more_than) const {
   checkQuery(tsdf, voxel_size_, stride, "ExplorationGain::visibleUnknownFraction");
   const CheckedPose pose = checkPose(world_T_camera, voxel_size_, options_.max_range,
                                      "ExplorationGain::visibleUnknownFraction");
   VoxelLookup lookup(tsdf);
   const VoxelIndex origin_voxel = tsdf.voxelIndex(pose.translation);
-  Gain gain;
   const size_t step = static_cast<size_t>(stride);
+  const auto total = static_cast<int64_t>((points_.size() + step - 1) / step);
+  // The fraction if every point not yet checked were visible and unknown: it only falls.
+  const auto reachable = [&](int64_t unknown, int64_t checked) {
+    const double best =
+        total > 0 ? static_cast<double>(unknown + total - checked) / static_cast<double>(total) : 0;
+    return best >= at_least && best > more_than;
+  };
+  if (!reachable(0, 0)) return std::nullopt;
+  Gain gain;
   for (size_t n = 0; n < points_.size(); n += step) {
     const Eigen::Vector3d p = pose.rotation * points_[n].cast<double>() + pose.translation;
     ++gain.checked;
     const VoxelIndex v = tsdf.voxelIndex(p);
     // Observed points are not unknown whether hidden or not: only unknown ones need the walk.
-    if (!isUnknown(lookup.voxel(v), options_.min_weight)) continue;
-    if (!occluded(lookup, pose.translation, p, origin_voxel, v, voxel_size_, options_.min_weight)) {
+    if (isUnknown(lookup.voxel(v), options_.min_weight) &&
+        !occluded(lookup, pose.translation, p, origin_voxel, v, voxel_size_, options_.min_weight)) {
       ++gain.unknown;
+    } else if (!reachable(gain.unknown, gain.checked)) {
+      return std::nullopt;
     }
   }
   gain.unknown_fraction =

@@ -305,6 +305,27 @@ TEST(ExplorationGain, OcclusionOnAFlownMapOnlyRemovesUnknownPoints) {
   EXPECT_GT(hidden_somewhere, 100);
 }
 
+// The early-stopping walk gives the whole gain exactly when the fraction passes both bounds, and
+// nothing when it misses either by the smallest step (one point in `checked`).
+TEST(ExplorationGain, TheWalkIfAboveGivesTheGainOnlyWhenItPassesBothBounds) {
+  const ExplorationGain gain(GainOptions{}, kVoxel);
+  int passed = 0;
+  const std::vector<Pose> poses = posesNearFlight();
+  for (size_t n = 0; n < poses.size(); n += 10) {
+    const Gain full = gain.visibleUnknownFraction(flownMap(), poses[n], 5);
+    const double f = full.unknown_fraction, below = f - 0.5 / static_cast<double>(full.checked);
+    const double above = f + 0.5 / static_cast<double>(full.checked);
+    const std::optional<Gain> both =
+        gain.visibleUnknownFractionIfAbove(flownMap(), poses[n], 5, f, below);
+    ASSERT_TRUE(both) << "pose " << n;
+    expectSameGain(*both, full);
+    EXPECT_FALSE(gain.visibleUnknownFractionIfAbove(flownMap(), poses[n], 5, above, -1));
+    EXPECT_FALSE(gain.visibleUnknownFractionIfAbove(flownMap(), poses[n], 5, 0, f));
+    passed += f > 0;
+  }
+  EXPECT_GT(passed, 10);  // views that do see unknown space were among them
+}
+
 TEST(ExplorationGain, IsDeterministic) {
   const ExplorationGain a(GainOptions{}, kVoxel);
   const ExplorationGain b(GainOptions{}, kVoxel);

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -63,6 +64,13 @@ class ExplorationGain {
   /// along the ray from the camera.
   Gain visibleUnknownFraction(const TsdfLayer& tsdf, const Pose& world_T_camera,
                               int stride = 1) const;
+
+  /// visibleUnknownFraction when it is at least `at_least` and more than `more_than`, else
+  /// nothing: the walk stops as soon as the points left cannot bring the fraction there, so
+  /// choosing the best of several views costs little for the views that cannot win.
+  std::optional<Gain> visibleUnknownFractionIfAbove(const TsdfLayer& tsdf,
+                                                    const Pose& world_T_camera, int stride,
+                                                    double at_least, double more_than) const;
 
   /// The optical-frame pose of a forward camera at `position` with heading `yaw` (no pitch).
   static Pose cameraAt(const Eigen::Vector3d& position, double yaw);
