@@ -831,14 +831,16 @@ TEST(LocalPlanner, AThickWallIsStuckTooNotPlannedInPlace) {
 // stuck, with a reason that says so, and no optimization of a spline of no length (which broke
 // down to a trajectory through the origin).
 TEST(LocalPlanner, ASearchBackToTheStartIsStuckWithoutOptimizing) {
+  // Free space, unknown from `ahead` in front of the start on.
+  const DistanceField free = freeSpace();
+  const auto unknownFrom = [&free](double ahead) -> DistanceField {
+    return [&free, ahead](const Eigen::Vector3d& p) {
+      return p.x() > kStart.x() + ahead ? EsdfSample{} : free(p);
+    };
+  };
   LocalPlanner planner({});
   ASSERT_FALSE(planner.setMissionGoal(goalAt(1, {kMission})));
-  const DistanceField free = freeSpace();
-  const DistanceField field = [&free](const Eigen::Vector3d& p) {
-    EsdfSample sample = free(p);
-    if (p.x() > kStart.x() + 0.05) sample = EsdfSample{};
-    return sample;
-  };
+  const DistanceField field = unknownFrom(0.05);
   const CycleReport report = planner.plan(kT0, &field, kT0, 1, stateAt(kT0, kStart));
   EXPECT_EQ(report.state, CycleState::kStuck);
   EXPECT_TRUE(contains(report.reason, "no horizon goal away from the start")) << report.reason;
@@ -847,11 +849,7 @@ TEST(LocalPlanner, ASearchBackToTheStartIsStuckWithoutOptimizing) {
   EXPECT_NEAR((report.trajectory->evaluate(report.trajectory->duration()) - kStart).norm(), 0,
               1e-9);
   // With the unknown space 2 m ahead, the horizon goal lies before it and the vehicle flies.
-  const DistanceField farther = [&free](const Eigen::Vector3d& p) {
-    EsdfSample sample = free(p);
-    if (p.x() > kStart.x() + 2.0) sample = EsdfSample{};
-    return sample;
-  };
+  const DistanceField farther = unknownFrom(2.0);
   LocalPlanner other({});
   ASSERT_FALSE(other.setMissionGoal(goalAt(1, {kMission})));
   EXPECT_EQ(other.plan(kT0, &farther, kT0, 1, stateAt(kT0, kStart)).state, CycleState::kPlanned);
