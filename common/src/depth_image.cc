@@ -130,7 +130,11 @@ Expected<DepthImage> decodeDepthImage(const depth_image_t& msg) {
       for (int b = 0; b < 4; ++b) bits |= static_cast<uint32_t>(raw[4 * i + b]) << (8 * b);
       float value;
       std::memcpy(&value, &bits, 4);
-      if (!std::isfinite(value) || value < 0) {
+      // NaN and infinities are "no return" (depth_image_t; REP 117's too far, too close and
+      // invalid); a negative depth is a broken sensor.
+      if (!std::isfinite(value)) {
+        value = 0;
+      } else if (value < 0) {
         ++bad;
         value = 0;
       }
@@ -138,7 +142,7 @@ Expected<DepthImage> decodeDepthImage(const depth_image_t& msg) {
     }
   }
   if (bad > 0) {
-    return unexpected(std::to_string(bad) + " pixels are NaN, infinite or negative");
+    return unexpected(std::to_string(bad) + " pixels are negative");
   }
   return image;
 }

@@ -97,15 +97,22 @@ TEST(DepthImage, RefusesCorruptCompressedPayloads) {
   expectRefused(msg, "no valid frame");
 }
 
-TEST(DepthImage, RefusesBadPixelValues) {
-  for (float bad :
-       {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(), -1.0f}) {
+TEST(DepthImage, NonFiniteFloatDepthsAreNoReturnAndNegativeOnesAreRefused) {
+  for (float none :
+       {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
+        -std::numeric_limits<float>::infinity()}) {
     DepthImage image = sampleImage();
-    image.depth[5] = bad;
-    image.depth[6] = bad;
-    expectRefused(encodeDepthImage(image, depth_image_t::DEPTH_FLOAT32_M),
-                  "2 pixels are NaN, infinite or negative");
+    ASSERT_GT(image.depth[5], 0.0f);
+    image.depth[5] = none;
+    const auto decoded = decodeDepthImage(encodeDepthImage(image, depth_image_t::DEPTH_FLOAT32_M));
+    ASSERT_TRUE(decoded.ok()) << decoded.error();
+    EXPECT_EQ(decoded->depth[5], 0.0f);
+    EXPECT_EQ(decoded->depth[4], image.depth[4]);
   }
+  DepthImage image = sampleImage();
+  image.depth[5] = -1.0f;
+  image.depth[6] = -0.5f;
+  expectRefused(encodeDepthImage(image, depth_image_t::DEPTH_FLOAT32_M), "2 pixels are negative");
 }
 
 TEST(DepthImage, RefusesBadMetadata) {

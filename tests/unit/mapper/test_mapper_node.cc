@@ -169,15 +169,15 @@ TEST_F(MapperNodeTest, BadInputIsRefusedWithAReasonAndNeverReachesTheMap) {
     EXPECT_TRUE(identicalLayers(mapper.mapper().tsdf(), tsdf_before)) << what;
   };
 
-  depth_image_t nan_depth = frameAt(renderer, 0.6, 600'000);
+  depth_image_t negative_depth = frameAt(renderer, 0.6, 600'000);
   {
-    DepthImage image = *decodeDepthImage(nan_depth);
-    image.depth[100] = NAN;
-    nan_depth =
+    DepthImage image = *decodeDepthImage(negative_depth);
+    image.depth[100] = -1.0f;
+    negative_depth =
         encodeDepthImage(image, depth_image_t::DEPTH_FLOAT32_M, depth_image_t::COMPRESSION_NONE);
   }
-  sensors.publish("CAMERA_DEPTH", nan_depth);
-  expectRefused("NaN depth", "bad depth frame");
+  sensors.publish("CAMERA_DEPTH", negative_depth);
+  expectRefused("negative depth", "1 pixels are negative");
 
   depth_image_t wrong_size = frameAt(renderer, 0.6, 600'000);
   wrong_size.width = 10;

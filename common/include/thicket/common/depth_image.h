@@ -30,9 +30,9 @@ depth_image_t encodeDepthImage(const DepthImage& image,
                                int8_t compression = depth_image_t::COMPRESSION_ZSTD);
 
 /// Decodes and validates: known encoding and compression, consistent sizes (width * height
-/// pixels, data size, decompressed size), valid intrinsics and mount, finite non-negative
-/// depths (NaN and +inf in float images are refused, not taken as "no return", because a sensor
-/// that emits them is broken), sane range limits.
+/// pixels, data size, decompressed size; at most PinholeCamera::kMaxPixels), valid intrinsics
+/// and mount, non-negative depths, sane range limits. NaN and ±inf in float images are "no
+/// return" (0), as depth_image_t says.
 Expected<DepthImage> decodeDepthImage(const depth_image_t& msg);
 
 }  // namespace thicket
