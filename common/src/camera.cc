@@ -16,6 +16,9 @@ Expected<PinholeCamera> PinholeCamera::validated() const {
   std::ostringstream problem;
   if (width <= 0 || height <= 0) {
     problem << "image size " << width << "x" << height << " is not positive";
+  } else if (int64_t{width} * height > kMaxPixels) {
+    problem << "image size " << width << "x" << height << " exceeds the " << kMaxPixels
+            << " pixels thicket accepts";
   } else if (!(std::isfinite(fx) && fx > 0.0 && std::isfinite(fy) && fy > 0.0)) {
     problem << "focal lengths fx = " << fx << ", fy = " << fy << " are not finite and positive";
   } else if (!(std::isfinite(cx) && std::isfinite(cy))) {

@@ -12,38 +12,83 @@
 
 namespace thicket {
 
-LogReader::LogReader(const std::string& path)
-    : path_(path), file_(std::make_unique<lcm::LogFile>(path, "r")) {
-  if (!file_->good()) {
+namespace {
+
+constexpr uint32_t kSyncWord = 0xEDA1DA01;
+constexpr int64_t kEventHeaderBytes = 4 + 8 + 8 + 4 + 4;  // sync, eventnum, timestamp, lengths
+constexpr int32_t kMaxChannelBytes = 1000;                // what LCM's reader accepts (exclusive)
+
+uint64_t bigEndian(const uint8_t* bytes, int n) {
+  uint64_t value = 0;
+  for (int i = 0; i < n; ++i) value = (value << 8) | bytes[i];
+  return value;
+}
+
+}  // namespace
+
+void LogReader::FileCloser::operator()(FILE* file) const {
+  std::fclose(file);
+}
+
+LogReader::LogReader(const std::string& path) : path_(path), file_(std::fopen(path.c_str(), "rb")) {
+  struct stat info {};
+  if (!file_ || ::fstat(fileno(file_.get()), &info) != 0) {
     throw std::runtime_error("cannot open log '" + path + "': " + std::strerror(errno));
   }
-  struct stat info {};
-  if (::stat(path.c_str(), &info) == 0) file_size_ = info.st_size;
+  file_size_ = info.st_size;
 }
 
 LogReader::~LogReader() = default;
 
 std::optional<LogEvent> LogReader::next() {
-  const lcm::LogEvent* event = file_->readNextEvent();
-  if (event == nullptr) {
-    // LCM skips what it cannot parse while hunting for the next sync word, and reports a torn
-    // tail and a clean end alike: whatever bytes the events read do not account for are damage.
-    if (error_.empty() && good_end_ < file_size_) {
-      error_ = path_ + ": " + std::to_string(file_size_ - good_end_) +
-               " bytes are not part of the " + std::to_string(events_read_) +
-               " events read: torn or corrupt log";
-    }
+  if (!error_.empty() || good_end_ >= file_size_) return std::nullopt;
+  // Every length is checked against the bytes left in the file before anything is allocated or
+  // read: a corrupt header ends the reading with a message saying where, never a crash.
+  const auto fail = [&](const std::string& what) -> std::optional<LogEvent> {
+    error_ = path_ + ": event " + std::to_string(events_read_) + " at byte " +
+             std::to_string(good_end_) + ": " + what + "; " +
+             std::to_string(file_size_ - good_end_) + " bytes are not part of the " +
+             std::to_string(events_read_) + " events read: torn or corrupt log";
     return std::nullopt;
+  };
+  const int64_t remaining = file_size_ - good_end_;
+  uint8_t header[kEventHeaderBytes];
+  if (remaining < kEventHeaderBytes) {
+    return fail("torn header (" + std::to_string(remaining) + " of " +
+                std::to_string(kEventHeaderBytes) + " bytes): the log ends mid-event");
   }
+  if (std::fread(header, 1, sizeof(header), file_.get()) != sizeof(header)) {
+    return fail("read error: " + std::string(std::strerror(errno)));
+  }
+  if (bigEndian(header, 4) != kSyncWord) return fail("no sync word: corrupt data");
+  const auto channel_bytes = static_cast<int32_t>(bigEndian(header + 20, 4));
+  const auto data_bytes = static_cast<int32_t>(bigEndian(header + 24, 4));
+  if (channel_bytes <= 0 || channel_bytes >= kMaxChannelBytes) {
+    return fail("impossible channel name length " + std::to_string(channel_bytes) +
+                ": corrupt header");
+  }
+  if (data_bytes < 0) {
+    return fail("negative data length " + std::to_string(data_bytes) + ": corrupt header");
+  }
+  const int64_t body = int64_t{channel_bytes} + data_bytes;
+  if (body > remaining - kEventHeaderBytes) {
+    return fail("torn or corrupt event: its header claims " +
+                std::to_string(kEventHeaderBytes + body) + " bytes, " + std::to_string(remaining) +
+                " are left in the file");
+  }
+  LogEvent event;
+  event.eventnum = static_cast<int64_t>(bigEndian(header + 4, 8));
+  event.timestamp = static_cast<int64_t>(bigEndian(header + 12, 8));
+  event.channel.resize(static_cast<size_t>(channel_bytes));
+  event.data.resize(static_cast<size_t>(data_bytes));
+  if (std::fread(event.channel.data(), 1, event.channel.size(), file_.get()) !=
+          event.channel.size() ||
+      std::fread(event.data.data(), 1, event.data.size(), file_.get()) != event.data.size()) {
+    return fail("read error: " + std::string(std::strerror(errno)));
+  }
+  good_end_ += kEventHeaderBytes + body;
   ++events_read_;
-  // The bytes this event takes in the file (sync word, event number, timestamp, the two lengths,
-  // channel, data), summed rather than taken from ftell: LCM 1.3.1 consumes a tail too short for
-  // the next sync word together with the last event, so ftell would hide that damage.
-  constexpr int64_t kEventHeaderBytes = 4 + 8 + 8 + 4 + 4;
-  good_end_ += kEventHeaderBytes + static_cast<int64_t>(event->channel.size()) + event->datalen;
-  const auto* bytes = static_cast<const uint8_t*>(event->data);
-  return LogEvent{event->eventnum, event->timestamp, event->channel,
-                  std::vector<uint8_t>(bytes, bytes + event->datalen)};
+  return event;
 }
 
 std::vector<LogEvent> LogReader::readAll() {

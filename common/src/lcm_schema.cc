@@ -1,4 +1,4 @@
-#include "lcm_schema.h"
+#include "thicket/common/lcm_schema.h"
 
 #include <algorithm>
 #include <cctype>
@@ -9,8 +9,9 @@
 #include <iterator>
 #include <optional>
 #include <set>
+#include <stdexcept>
 
-namespace thicket::replay {
+namespace thicket {
 namespace {
 
 struct PrimitiveInfo {
@@ -307,6 +308,28 @@ class Reader {
     bits = value;
     return true;
   }
+  /// An encoded string: an int32 length that counts the NUL, the characters, the NUL. Nullopt
+  /// when it is one (`text`, if given, gets the characters), else why not.
+  std::optional<std::string> string(std::string* text) {
+    uint64_t length = 0;
+    if (!scalar(Primitive::kInt32, length)) return std::string("truncated");
+    const int64_t n = static_cast<int64_t>(length);
+    if (n < 1) return "string length " + std::to_string(n) + " (at least 1: the NUL)";
+    if (static_cast<uint64_t>(n) > remaining()) {
+      return "string length " + std::to_string(n) + " exceeds the " + std::to_string(remaining()) +
+             " bytes left";
+    }
+    const auto* start = reinterpret_cast<const char*>(data_ + pos_);
+    pos_ += static_cast<size_t>(n);
+    if (start[n - 1] != 0) return std::string("string not NUL-terminated");
+    if (text != nullptr) text->assign(start, static_cast<size_t>(n - 1));
+    return std::nullopt;
+  }
+  bool skip(size_t n) {
+    if (remaining() < n) return false;
+    pos_ += n;
+    return true;
+  }
   bool bytes(size_t n, std::vector<uint8_t>& out) {
     if (remaining() < n) return false;
     out.assign(data_ + pos_, data_ + pos_ + n);
@@ -416,20 +439,125 @@ class Decoder {
       return std::nullopt;
     }
     if (field.primitive == Primitive::kString) {
-      uint64_t length = 0;
-      if (!reader_.scalar(Primitive::kInt32, length)) return std::string("truncated");
-      const int64_t n = static_cast<int64_t>(length);
-      if (n < 1) return "string length " + std::to_string(n) + " (at least 1: the NUL)";
-      std::vector<uint8_t> bytes;
-      if (!reader_.bytes(static_cast<size_t>(n), bytes)) return std::string("truncated");
-      if (bytes.back() != 0) return std::string("string not NUL-terminated");
       value.kind = LcmValue::Kind::kString;
-      value.text.assign(bytes.begin(), bytes.end() - 1);
-      return std::nullopt;
+      return reader_.string(&value.text);
     }
     value.kind = LcmValue::Kind::kScalar;
     value.primitive = field.primitive;
     if (!reader_.scalar(field.primitive, value.bits)) return std::string("truncated");
+    return std::nullopt;
+  }
+
+  Reader reader_;
+};
+
+// The wire size of one element of `field` below `dimension` when it is the same for every
+// element (primitives other than strings, structs of such), given the values of the enclosing
+// struct's size fields; nullopt otherwise. Saturates at UINT64_MAX.
+std::optional<uint64_t> fixedWireSize(const LcmField& field, size_t dimension,
+                                      const std::vector<int64_t>& sizes, int depth = 0);
+
+std::optional<uint64_t> fixedStructSize(const LcmStruct& type, int depth) {
+  if (depth > kMaxNesting) return std::nullopt;
+  uint64_t total = 0;
+  const std::vector<int64_t> no_sizes(type.fields.size(), 0);
+  for (const LcmField& field : type.fields) {
+    for (const LcmDimension& d : field.dimensions) {
+      if (d.variable) return std::nullopt;
+    }
+    const auto size = fixedWireSize(field, 0, no_sizes, depth + 1);
+    if (!size) return std::nullopt;
+    total = (total > UINT64_MAX - *size) ? UINT64_MAX : total + *size;
+  }
+  return total;
+}
+
+std::optional<uint64_t> fixedWireSize(const LcmField& field, size_t dimension,
+                                      const std::vector<int64_t>& sizes, int depth) {
+  uint64_t element = 0;
+  if (!field.is_primitive) {
+    const auto size = fixedStructSize(*field.type, depth);
+    if (!size) return std::nullopt;
+    element = *size;
+  } else if (field.primitive == Primitive::kString) {
+    return std::nullopt;
+  } else {
+    element = info(field.primitive).size;
+  }
+  uint64_t total = element;
+  for (size_t d = dimension; d < field.dimensions.size(); ++d) {
+    const LcmDimension& dim = field.dimensions[d];
+    const int64_t count = dim.variable ? sizes[dim.size_field_index] : dim.size;
+    if (count < 0) return std::nullopt;  // the walk reports it where it is
+    if (__builtin_mul_overflow(total, static_cast<uint64_t>(count), &total)) return UINT64_MAX;
+  }
+  return total;
+}
+
+// Walks an encoded message without allocating anything in proportion to what it declares.
+class Checker {
+ public:
+  Checker(const uint8_t* data, size_t size) : reader_(data, size) {}
+  Reader& reader() { return reader_; }
+
+  std::optional<std::string> checkStruct(const LcmStruct& type, int depth) {
+    if (depth > kMaxNesting) return "nesting deeper than " + std::to_string(kMaxNesting);
+    std::vector<int64_t> sizes(type.fields.size(), 0);  // scalar values, for size fields
+    for (size_t f = 0; f < type.fields.size(); ++f) {
+      const LcmField& field = type.fields[f];
+      if (field.dimensions.empty() && field.is_primitive && field.primitive != Primitive::kString) {
+        uint64_t bits = 0;
+        if (!reader_.scalar(field.primitive, bits)) return withPath(field.name, "truncated");
+        sizes[f] = static_cast<int64_t>(bits);
+        continue;
+      }
+      if (auto error = checkField(field, 0, sizes, depth)) return withPath(field.name, *error);
+    }
+    return std::nullopt;
+  }
+
+ private:
+  std::optional<std::string> checkField(const LcmField& field, size_t dimension,
+                                        const std::vector<int64_t>& sizes, int depth) {
+    if (dimension == field.dimensions.size()) return checkElement(field, depth);
+    const LcmDimension& d = field.dimensions[dimension];
+    const int64_t count = d.variable ? sizes[d.size_field_index] : d.size;
+    if (count < 0) {
+      return "size field " + d.size_field + " is negative (" + std::to_string(count) + ")";
+    }
+    const auto exceeds = [&] {
+      const std::string left = " the " + std::to_string(reader_.remaining()) + " bytes left";
+      if (!d.variable) return "truncated: " + std::to_string(count) + " elements exceed" + left;
+      return "size " + std::to_string(count) + " (" + d.size_field + ") exceeds" + left;
+    };
+    const uint64_t n = static_cast<uint64_t>(count);
+    // Even elements of no bytes cost the decoder a container each: at most one per byte left.
+    if (const auto element = fixedWireSize(field, dimension + 1, sizes, depth)) {
+      const bool fits =
+          *element == 0 ? n <= reader_.remaining() + 1 : n <= reader_.remaining() / *element;
+      if (!fits) return exceeds();
+      if (!reader_.skip(n * *element)) return std::string("truncated");
+      return std::nullopt;
+    }
+    const size_t minimum = std::max<size_t>(minimumSize(field, dimension + 1), 1);
+    if (n > reader_.remaining() / minimum + 1) return exceeds();
+    for (uint64_t i = 0; i < n; ++i) {
+      if (auto error = checkField(field, dimension + 1, sizes, depth)) {
+        return withPath("[" + std::to_string(i) + "]", *error);
+      }
+    }
+    return std::nullopt;
+  }
+
+  std::optional<std::string> checkElement(const LcmField& field, int depth) {
+    if (!field.is_primitive) {
+      auto error = checkStruct(*field.type, depth + 1);
+      if (error) return "." + *error;
+      return std::nullopt;
+    }
+    if (field.primitive == Primitive::kString) return reader_.string(nullptr);
+    uint64_t bits = 0;
+    if (!reader_.scalar(field.primitive, bits)) return std::string("truncated");
     return std::nullopt;
   }
 
@@ -536,6 +664,19 @@ const LcmValue* LcmValue::field(const std::string& name) const {
     if (type->fields[i].name == name) return &items[i];
   }
   return nullptr;
+}
+
+const LcmTypeSet& builtinLcmTypes() {
+  static const LcmTypeSet types = [] {
+    const std::vector<std::pair<std::string, std::string>> sources = {
+#include "lcm_sources.inc"
+    };
+    auto parsed = LcmTypeSet::parse(sources);
+    // The build parsed the same files with lcm-gen; a failure here is a defect of this parser.
+    if (!parsed) throw std::logic_error("thicket's own LCM types: " + parsed.error());
+    return std::move(*parsed);
+  }();
+  return types;
 }
 
 bool readFingerprint(const void* data, size_t size, uint64_t& fingerprint) {
@@ -671,6 +812,30 @@ Expected<LcmValue> LcmTypeSet::decode(const void* data, size_t size) const {
   return value;
 }
 
+std::string LcmTypeSet::check(const LcmStruct& type, const void* data, size_t size) {
+  uint64_t fingerprint = 0;
+  if (!readFingerprint(data, size, fingerprint)) {
+    return std::to_string(size) + " bytes is too short for any " + type.fullName();
+  }
+  if (fingerprint != type.fingerprint) {
+    char text[160];
+    std::snprintf(text, sizeof text, "fingerprint 0x%016llx is not %s (0x%016llx)",
+                  static_cast<unsigned long long>(fingerprint), type.fullName().c_str(),
+                  static_cast<unsigned long long>(type.fingerprint));
+    return text;
+  }
+  Checker checker(static_cast<const uint8_t*>(data), size);
+  checker.reader().skip(8);
+  if (auto error = checker.checkStruct(type, 0)) {
+    return "malformed " + type.fullName() + " (" + std::to_string(size) + " bytes): " + *error;
+  }
+  if (checker.reader().remaining() != 0) {
+    return type.fullName() + " followed by " + std::to_string(checker.reader().remaining()) +
+           " unexpected bytes";
+  }
+  return {};
+}
+
 Expected<std::vector<uint8_t>> LcmTypeSet::encode(const LcmValue& message) const {
   if (message.kind != LcmValue::Kind::kStruct || message.type == nullptr) {
     return unexpected("only a struct value encodes as a message");
@@ -683,4 +848,4 @@ Expected<std::vector<uint8_t>> LcmTypeSet::encode(const LcmValue& message) const
   return std::move(encoder.out());
 }
 
-}  // namespace thicket::replay
+}  // namespace thicket

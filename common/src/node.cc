@@ -5,6 +5,8 @@
 #include <cstring>
 #include <exception>
 
+#include "thicket/common/lcm_schema.h"
+
 namespace thicket {
 
 // Owns one LCM subscription; LCM calls onMessage with the raw bytes.
@@ -26,29 +28,29 @@ std::string exactChannelPattern(const std::string& channel) {
   return pattern;
 }
 
-std::string describeDecodeFailure(const void* data, size_t size, int64_t expected_hash,
-                                  const char* type_name, int decoded_bytes) {
+std::string checkEncodedMessage(const void* data, size_t size, int64_t expected_hash,
+                                const char* type_name) {
   char text[256];
   if (size < 8) {
     std::snprintf(text, sizeof(text), "%zu bytes is too short for any %s", size, type_name);
     return text;
   }
   uint64_t fingerprint = 0;
-  const auto* bytes = static_cast<const uint8_t*>(data);
-  for (int i = 0; i < 8; ++i) fingerprint = (fingerprint << 8) | bytes[i];
+  readFingerprint(data, size, fingerprint);
   if (fingerprint != static_cast<uint64_t>(expected_hash)) {
     std::snprintf(text, sizeof(text),
                   "fingerprint 0x%016" PRIx64 " is not %s (0x%016" PRIx64
                   "): wrong type on channel",
                   fingerprint, type_name, static_cast<uint64_t>(expected_hash));
-  } else if (decoded_bytes < 0) {
-    std::snprintf(text, sizeof(text), "malformed %s (%zu bytes): truncated or inconsistent sizes",
-                  type_name, size);
-  } else {
-    std::snprintf(text, sizeof(text), "%s followed by %zu unexpected bytes", type_name,
-                  size - static_cast<size_t>(decoded_bytes));
+    return text;
   }
-  return text;
+  if (size > static_cast<size_t>(INT32_MAX)) {
+    std::snprintf(text, sizeof(text), "%s of %zu bytes: more than LCM can decode", type_name, size);
+    return text;
+  }
+  const LcmStruct* type = builtinLcmTypes().findByFingerprint(fingerprint);
+  if (type == nullptr) return std::string(type_name) + " is not one of thicket's LCM types";
+  return LcmTypeSet::check(*type, data, size);
 }
 
 Node::Node(std::string name, lcm::LCM& lcm) : name_(std::move(name)), lcm_(lcm) {}

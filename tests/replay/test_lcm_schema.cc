@@ -13,7 +13,7 @@
 #include "cli.h"
 #include "diff.h"
 #include "known_lcm_types.h"
-#include "lcm_schema.h"
+#include "thicket/common/lcm_schema.h"
 #include "temp_dir_test.h"
 #include "thicket/common/lcm_log.h"
 

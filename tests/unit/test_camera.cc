@@ -175,6 +175,16 @@ TEST(PinholeCamera, ValidatedRefusesUnusableIntrinsics) {
   camera = good;
   camera.height = -1;
   refuses(camera, "size");
+  // A message claiming a huge image would make its decoder allocate (or decompress into) it.
+  camera = good;
+  camera.width = 46341;
+  camera.height = 46341;  // the product overflows an int
+  refuses(camera, "exceeds the 16777216 pixels");
+  camera.width = 4097;
+  camera.height = 4096;
+  refuses(camera, "exceeds");
+  camera.width = 4096;
+  EXPECT_TRUE(camera.validated().ok());
   camera = good;
   camera.fx = nan;
   refuses(camera, "focal");

@@ -109,6 +109,36 @@ TEST(LcmLog, ATailShorterThanASyncWordIsDamageToo) {
       << reader.error();
 }
 
+// LCM 1.3.1's reader freads a data length of 2^31 - 1 into a failed allocation and crashes.
+TEST(LcmLog, AnEventClaimingMoreBytesThanTheFileHoldsEndsTheReadingWithoutAllocatingThem) {
+  const std::string path = tempPath("claims.lcmlog");
+  {
+    LogWriter writer(path);
+    for (int i = 0; i < 3; ++i) writer.write(100 * i, "S", makeSetpoint(i));
+  }
+  const auto event_bytes = static_cast<std::streamoff>(fs::file_size(path) / 3);
+  for (const uint32_t data_length : {0x7FFFFFFFu, 0x80000000u}) {
+    {
+      std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
+      file.seekp(event_bytes + 24);  // the second event's data length
+      const char bytes[4] = {static_cast<char>(data_length >> 24),
+                             static_cast<char>(data_length >> 16),
+                             static_cast<char>(data_length >> 8), static_cast<char>(data_length)};
+      file.write(bytes, 4);
+    }
+    LogReader reader(path);
+    EXPECT_EQ(reader.readAll().size(), 1u);
+    const std::string expected =
+        data_length == 0x7FFFFFFFu ? "its header claims 2147483676 bytes" : "negative data length";
+    EXPECT_NE(reader.error().find("event 1 at byte " + std::to_string(event_bytes) + ": " +
+                                  (data_length == 0x7FFFFFFFu ? "torn or corrupt event" : "")),
+              std::string::npos)
+        << reader.error();
+    EXPECT_NE(reader.error().find(expected), std::string::npos) << reader.error();
+    EXPECT_NE(reader.error().find("bytes are not part of the 1 events read"), std::string::npos);
+  }
+}
+
 TEST(LcmLog, GarbageIsNotALog) {
   const std::string path = tempPath("garbage.lcmlog");
   std::ofstream(path) << "this is not an LCM log, just some text that happens to be here";

@@ -1,5 +1,6 @@
-// Reading a whole LCM log for the log tools, without trusting it: a torn tail, a corrupt header
-// or an impossible length ends the reading with a message saying where, instead of a crash.
+// Reading a whole LCM log for the log tools through LogReader (lcm_log.h), which does not trust
+// it: a torn tail, a corrupt header or an impossible length ends the reading with a message
+// saying where, instead of a crash.
 #pragma once
 
 #include <cstdint>
@@ -19,10 +20,6 @@ struct LogReadResult {
 
 /// Calls `on_event` with every event of the log at `path`, in file order, up to the first damaged
 /// one. Throws std::runtime_error naming the file when it cannot be opened.
-///
-/// The log tools read the lcm-logger format themselves rather than through lcm::LogFile (LCM
-/// 1.3.1), which crashes on some corrupt data lengths, drops the last good event before a
-/// corrupt one and cannot say where the damage is.
 LogReadResult readLog(const std::string& path,
                       const std::function<void(const LogEvent&)>& on_event);
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "diff.h"
-#include "lcm_schema.h"
+#include "thicket/common/lcm_schema.h"
 #include "replay.h"
 #include "thicket/common/expected.h"
 #include "thicket/common/lcm_log.h"

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "lcm_schema.h"
+#include "thicket/common/lcm_schema.h"
 
 namespace thicket::replay {
 

@@ -8,6 +8,7 @@
 #include <thicket/map_update_t.hpp>
 
 #include "thicket/common/map_update.h"
+#include "thicket/common/node.h"
 
 namespace thicket::mapper {
 namespace {
@@ -94,8 +95,8 @@ Expected<SavedMap> loadMap(const std::string& path) {
     if (size > body.size() - offset) return unexpected(where + "truncated");
     if (fnv1a(&body[offset], size) != checksum) return unexpected(where + "corrupt (checksum)");
     map_update_t msg;
-    if (msg.decode(body.data() + offset, 0, static_cast<int>(size)) != static_cast<int>(size)) {
-      return unexpected(where + "not a map update");
+    if (const std::string error = decodeMessage(&body[offset], size, msg); !error.empty()) {
+      return unexpected(where + "not a map update: " + error);
     }
     offset += size;
     const std::string problem = msg.layer == map_update_t::LAYER_TSDF ? applyRecord(tsdf, msg)

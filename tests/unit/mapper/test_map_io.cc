@@ -12,6 +12,8 @@
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
 
+#include <thicket/map_update_t.hpp>
+
 #include "thicket/mapper/map_io.h"
 
 namespace thicket::mapper {
@@ -94,6 +96,34 @@ TEST(MapFile, RefusesWhatItCannotRead) {
     size |= static_cast<uint32_t>(static_cast<uint8_t>(bytes[first + i])) << (8 * i);
   EXPECT_NE(refusal(write("half.map", bytes.substr(0, first + 12 + size))).find("lacks"),
             std::string::npos);
+}
+
+// A record with a valid checksum whose message claims -1 or 2^31 - 1 blocks: LCM's generated
+// decoder would throw or allocate gigabytes (thicket-map aborted); the load names file and cause.
+TEST(MapFile, ARecordClaimingImpossibleBlockCountsIsRefusedNamingTheFile) {
+  for (const int32_t num_blocks : {-1, INT32_MAX}) {
+    thicket::map_update_t update{};
+    update.layer = thicket::map_update_t::LAYER_TSDF;
+    std::vector<uint8_t> message(static_cast<size_t>(update.getEncodedSize()));
+    update.encode(message.data(), 0, static_cast<int>(message.size()));
+    // num_blocks and num_removed are the last two int32 fields of an update without blocks.
+    const size_t at = message.size() - 8;
+    for (int i = 0; i < 4; ++i) message[at + i] = static_cast<uint8_t>(num_blocks >> (24 - 8 * i));
+    uint64_t checksum = 0xcbf29ce484222325ULL;  // FNV-1a, as the map file writes it
+    for (uint8_t byte : message) checksum = (checksum ^ byte) * 0x100000001b3ULL;
+    std::string file = "THICKET-MAP 1\n";
+    for (int i = 0; i < 4; ++i) file += static_cast<char>((message.size() >> (8 * i)) & 0xff);
+    for (int i = 0; i < 8; ++i) file += static_cast<char>((checksum >> (8 * i)) & 0xff);
+    file.append(message.begin(), message.end());
+    const std::string path = tempPath("blocks.map");
+    std::ofstream(path, std::ios::binary) << file;
+    const auto loaded = loadMap(path);
+    ASSERT_FALSE(loaded.ok());
+    EXPECT_NE(loaded.error().find(path + ": record 0: not a map update: malformed"),
+              std::string::npos)
+        << loaded.error();
+    EXPECT_NE(loaded.error().find("num_blocks"), std::string::npos) << loaded.error();
+  }
 }
 
 TEST(MapExport, MeshLiesOnTheSurfaceAndFacesTheFreeSide) {

@@ -2,7 +2,9 @@
 // events, and the exit status the demo relies on.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
+#include <vector>
 
 #include <thicket/goal_t.hpp>
 #include <thicket/sim_event_t.hpp>
@@ -85,6 +87,36 @@ TEST_F(LogMission, ACollisionOrAnotherEndOrNoEndFails) {
   EXPECT_FALSE(missionReport(limit)->goal_reached);
   EXPECT_NE(missionReport(unended)->text().find("did not end"), std::string::npos);
   EXPECT_EQ(testing::runCommand(std::string(THICKET_LOG) + " mission /nonexistent.lcm").status, 2);
+}
+
+// A stray packet on the bus must not stop the demo from reporting: LCM's generated decoder threw
+// std::length_error on a string length of 0 and aborted the tool.
+TEST_F(LogMission, MalformedMessagesInTheLogAreSkipped) {
+  goal_t strange = explorerGoal(goal_t::STATUS_OK);
+  strange.strategy = "xyz";
+  std::vector<uint8_t> bytes(static_cast<size_t>(strange.getEncodedSize()));
+  strange.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  const std::vector<uint8_t> length_and_text = {0, 0, 0, 4, 'x', 'y', 'z', 0};
+  const auto at =
+      std::search(bytes.begin(), bytes.end(), length_and_text.begin(), length_and_text.end());
+  ASSERT_NE(at, bytes.end());
+  at[3] = 0;  // a string of length 0: not even its NUL
+
+  const std::string path = tempPath("stray.lcm");
+  {
+    LogWriter writer(path);
+    writer.write(1'000, "SIM_EVENT", event(sim_event_t::TYPE_TRIAL_START));
+    writer.write(2'000, "EXPLORER_GOAL", bytes.data(), bytes.size());
+    writer.write(3'000, "EXPLORER_GOAL", explorerGoal(goal_t::STATUS_OK));
+    writer.write(4'000, "SIM_EVENT", bytes.data(), bytes.size());  // another type's fingerprint
+    writer.write(5'000, "SIM_EVENT",
+                 event(sim_event_t::TYPE_TRIAL_END, sim_event_t::OUTCOME_GOAL_REACHED));
+  }
+  const auto report = missionReport(path);
+  ASSERT_TRUE(report) << report.error();
+  EXPECT_TRUE(report->success());
+  EXPECT_EQ(report->explorer_goals, 1);
+  EXPECT_EQ(testing::runCommand(std::string(THICKET_LOG) + " mission " + path).status, 0);
 }
 
 }  // namespace

@@ -191,7 +191,9 @@ TEST_F(LogSummary, MessagesThatDoNotDecodeAsTheirTypeAreCountedAndReported) {
   EXPECT_EQ(truth.count, 3);
   EXPECT_EQ(truth.typeText(), "thicket.odometry_t");
   EXPECT_EQ(truth.decode_failures, 2);
-  EXPECT_NE(truth.first_decode_error.find("event 1: malformed odometry_t"), std::string::npos)
+  EXPECT_NE(truth.first_decode_error.find(
+                "event 1: malformed thicket.odometry_t (704 bytes): quality: truncated"),
+            std::string::npos)
       << truth.first_decode_error;
   ASSERT_EQ(summary->warnings.size(), 1u);
   EXPECT_NE(summary->warnings[0].find("SIM_TRUTH: 2 of 3 messages do not decode"),

@@ -4,6 +4,7 @@
 // u in [-0.5, width - 0.5) and v in [-0.5, height - 0.5).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 
 #include <Eigen/Geometry>
@@ -23,8 +24,12 @@ struct PinholeCamera {
   /// at ±horizontal_fov_rad / 2. Check the result with validated() when the inputs are untrusted.
   static PinholeCamera fromHorizontalFov(int width, int height, double horizontal_fov_rad);
 
-  /// This camera, or why it cannot be used: a non-positive size, non-finite or non-positive
-  /// focal lengths, or a non-finite principal point.
+  /// The largest image a message may describe: what decoding one allocates is bounded by it,
+  /// whatever a (compressed) message claims.
+  static constexpr int64_t kMaxPixels = int64_t{4096} * 4096;
+
+  /// This camera, or why it cannot be used: a non-positive size or one of more than kMaxPixels,
+  /// non-finite or non-positive focal lengths, or a non-finite principal point.
   Expected<PinholeCamera> validated() const;
 
   /// Angle between the left edge of the first column and the right edge of the last [rad].

@@ -1,9 +1,12 @@
-// LCM logs (the lcm-logger format) through lcm::LogFile: reading events in order with their
-// timestamps, writing them, recording live traffic, and replaying a log into nodes without
-// wall-clock pacing — how replay regression tests drive modules (DESIGN §4).
+// LCM logs (the lcm-logger format): reading events in order with their timestamps without
+// trusting the file (a torn tail, a corrupt header or an impossible length ends the reading with
+// a message saying where; LCM 1.3.1's reader crashes on some of them), writing them, recording live
+// traffic, and replaying a log into nodes without wall-clock pacing — how replay regression tests
+// drive modules (DESIGN §4).
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -39,7 +42,8 @@ class LogReader {
   ~LogReader();
 
   /// The next event, or nullopt at the end. A log that ends in a torn or corrupt event (a
-  /// logger killed mid-write) ends there; error() then says so.
+  /// logger killed mid-write) ends there; error() then says where and why. No event allocates
+  /// more than the bytes left in the file.
   std::optional<LogEvent> next();
 
   /// Every remaining event.
@@ -48,10 +52,15 @@ class LogReader {
   /// Why reading stopped early, or empty when the log ended cleanly (so far).
   const std::string& error() const { return error_; }
   const std::string& path() const { return path_; }
+  /// The size of the file when it was opened: what is read.
+  int64_t fileBytes() const { return file_size_; }
 
  private:
+  struct FileCloser {
+    void operator()(FILE* file) const;
+  };
   std::string path_;
-  std::unique_ptr<lcm::LogFile> file_;
+  std::unique_ptr<FILE, FileCloser> file_;
   int64_t file_size_ = 0;
   int64_t good_end_ = 0;  // bytes the events read so far take in the file
   int64_t events_read_ = 0;

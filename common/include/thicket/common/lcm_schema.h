@@ -1,6 +1,10 @@
 // LCM types known at run time: the .lcm definitions in lcmtypes/ parsed into a schema, so that
 // any logged message can be decoded field by field (and encoded back) without the generated
-// code. thicket-replay compares recorded and replayed messages this way, whatever their type.
+// code. thicket-replay compares recorded and replayed messages this way, whatever their type,
+// and every subscriber checks a message against it before the generated decoder sees it
+// (decodeMessage in node.h): LCM 1.3.1's decoders allocate whatever sizes a message declares
+// and compute byte counts in an int, so a 50-byte message could make them allocate gigabytes
+// or read past the buffer.
 //
 // The schema follows lcm-gen: primitive types, fixed and variable-length arrays (a variable
 // dimension names an earlier integer field), nested types, constants, and LCM's fingerprint rule,
@@ -16,7 +20,7 @@
 
 #include "thicket/common/expected.h"
 
-namespace thicket::replay {
+namespace thicket {
 
 enum class Primitive { kInt8, kInt16, kInt32, kInt64, kByte, kBoolean, kFloat, kDouble, kString };
 
@@ -98,6 +102,12 @@ class LcmTypeSet {
   /// Decodes one whole message (fingerprint first), picking its type by the fingerprint. The
   /// error says why not: too short, an unknown fingerprint, truncated, trailing bytes.
   Expected<LcmValue> decode(const void* data, size_t size) const;
+  /// Checks, without allocating, that `size` bytes hold exactly one encoded message of `type`
+  /// (fingerprint first): every size a field declares is non-negative and fits in the bytes
+  /// left, strings are NUL-terminated, nothing is left over. Empty when it holds; otherwise
+  /// why not, naming the field. A message that passes makes the generated decoder allocate at
+  /// most a few dozen bytes per encoded byte: no element count exceeds the bytes left + 1.
+  static std::string check(const LcmStruct& type, const void* data, size_t size);
   /// Encodes a struct value as a whole message; the error names the field that does not fit
   /// its type (an array length that disagrees with its size field...).
   Expected<std::vector<uint8_t>> encode(const LcmValue& message) const;
@@ -109,7 +119,10 @@ class LcmTypeSet {
   std::map<uint64_t, const LcmStruct*> by_fingerprint_;
 };
 
+/// The types thicket was built with: lcmtypes/*.lcm, compiled in.
+const LcmTypeSet& builtinLcmTypes();
+
 /// The first 8 bytes of a message as a fingerprint (big-endian); false when there are fewer.
 bool readFingerprint(const void* data, size_t size, uint64_t& fingerprint);
 
-}  // namespace thicket::replay
+}  // namespace thicket

@@ -98,14 +98,19 @@ class Node {
 /// `channel` as an LCM pattern that matches exactly that name.
 std::string exactChannelPattern(const std::string& channel);
 
-std::string describeDecodeFailure(const void* data, size_t size, int64_t expected_hash,
-                                  const char* type_name, int decoded_bytes);
+/// Whether `data` holds exactly one encoded message of the type whose fingerprint is
+/// `expected_hash`, checked against the built-in schema without allocating (lcm_schema.h):
+/// empty when it does, else why not. decodeMessage runs it before the generated decoder.
+std::string checkEncodedMessage(const void* data, size_t size, int64_t expected_hash,
+                                const char* type_name);
 
 template <class Msg>
 std::string decodeMessage(const void* data, size_t size, Msg& msg) {
+  std::string error = checkEncodedMessage(data, size, Msg::getHash(), Msg::getTypeName());
+  if (!error.empty()) return error;
   const int decoded = msg.decode(data, 0, static_cast<int>(size));
   if (decoded >= 0 && static_cast<size_t>(decoded) == size) return {};
-  return describeDecodeFailure(data, size, Msg::getHash(), Msg::getTypeName(), decoded);
+  return std::string("malformed ") + Msg::getTypeName() + ": the generated decoder refused it";
 }
 
 template <class Msg>
