@@ -35,6 +35,7 @@
 #include "thicket/common/node.h"
 #include "thicket/common/node_main.h"
 #include "thicket/common/time.h"
+#include "thicket/procman/printable.h"
 #include "thicket/procman/script_runner.h"
 #include "thicket/procman/sheet.h"
 #include "thicket/procman/sheriff.h"
@@ -346,29 +347,35 @@ class OutputPrinter {
       partial.erase(0, start);
       if (partial.size() > 4096) flush(label);
     }
+    // Unfinished lines of commands nobody runs (junk on PM_OUTPUT) must not pile up.
+    if (partial_.size() > kMaxPartialLines) flushAll();
   }
 
   /// Prints lines that have waited for their end.
   void flushAll() {
     for (auto& [label, partial] : partial_) flush(label);
+    partial_.clear();
   }
 
  private:
   std::string labelFor(const std::string& deputy, const std::string& id) const {
-    if (id.empty()) return "[deputy " + deputy + "]";
+    if (id.empty()) return "[deputy " + printableShort(deputy) + "]";
     if (sheriff_.command(deputy, id)) return "[" + id + "]";
-    return "[" + deputy + "/" + id + "]";
+    return "[" + printableShort(deputy) + "/" + printableShort(id) + "]";
   }
   void flush(const std::string& label) {
     std::string& partial = partial_[label];
     if (!partial.empty()) emit(label, partial);
     partial.clear();
   }
+  // Controls are escaped: a command (or a stranger on the bus) printing ESC[2J must not clear
+  // the operator's screen.
   static void emit(const std::string& label, std::string line) {
     while (!line.empty() && (line.back() == '\r' || line.back() == '\n')) line.pop_back();
-    say(label + " " + line);
+    say(printable(label + " " + line));
   }
 
+  static constexpr size_t kMaxPartialLines = 256;
   const Sheriff& sheriff_;
   std::map<std::string, std::string> partial_;
 };

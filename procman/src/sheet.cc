@@ -10,6 +10,8 @@
 #include <string_view>
 #include <utility>
 
+#include "thicket/procman/printable.h"
+
 namespace thicket::procman {
 namespace {
 
@@ -61,6 +63,12 @@ std::string quote(const std::string& text) {
   return out + "\"";
 }
 
+// A name from the sheet as an error message shows it: quoted, controls escaped, and cut short,
+// so that a 2 MB command id does not make a 2 MB message.
+std::string quoteShort(const std::string& text) {
+  return "\"" + printableShort(text) + "\"";
+}
+
 bool isLetter(char c) {
   return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || c == '_';
 }
@@ -91,12 +99,12 @@ std::string describe(const Token& token) {
     case TokenKind::kInteger:
       return "integer " + token.text;
     case TokenKind::kString:
-      return "string " + quote(token.text);
+      return "string " + quoteShort(token.text);
     case TokenKind::kIdentifier:
     case TokenKind::kSymbol:
       break;
   }
-  return "'" + token.text + "'";
+  return "'" + printableShort(token.text) + "'";
 }
 
 bool isWord(const Token& token, std::string_view word) {
@@ -283,11 +291,11 @@ class Parser {
     const Token id = expectKind(TokenKind::kString, "the command id (a string) after 'cmd'");
     if (id.text.empty()) fail(id.at, "empty command id");
     if (id.text.find('/') != std::string::npos) {
-      fail(id.at, "command id " + quote(id.text) +
+      fail(id.at, "command id " + quoteShort(id.text) +
                       " contains '/' (a command's group comes from the enclosing group blocks)");
     }
     if (const SheetCommand* first = sheet_.command(id.text)) {
-      fail(id.at, "duplicate command id " + quote(id.text) + " (first defined at line " +
+      fail(id.at, "duplicate command id " + quoteShort(id.text) + " (first defined at line " +
                       std::to_string(first->line) + "; ids are global to the sheet)");
     }
     expectSymbol("{", "'{' after the command id");
@@ -301,7 +309,7 @@ class Parser {
       const Token name = lexer_.next();
       if (isSymbol(name, "}")) break;
       if (name.kind != TokenKind::kIdentifier) {
-        unexpected(name, "an attribute name or '}' closing command " + quote(command.id));
+        unexpected(name, "an attribute name or '}' closing command " + quoteShort(command.id));
       }
       expectSymbol("=", "'=' after '" + name.text + "'");
       const Token value = lexer_.next();
@@ -312,10 +320,11 @@ class Parser {
       expectSymbol(";", "';' after the value of '" + name.text + "'");
     }
     if (!given.contains("exec")) {
-      fail(keyword.at, "command " + quote(command.id) + " has no 'exec' attribute");
+      fail(keyword.at, "command " + quoteShort(command.id) + " has no 'exec' attribute");
     }
     if (!given.contains("deputy") && !given.contains("host")) {
-      fail(keyword.at, "command " + quote(command.id) + " has no 'deputy' (or 'host') attribute");
+      fail(keyword.at,
+           "command " + quoteShort(command.id) + " has no 'deputy' (or 'host') attribute");
     }
     sheet_.commands.push_back(std::move(command));
   }
@@ -375,7 +384,7 @@ class Parser {
     const Token name = expectKind(TokenKind::kString, "the group name (a string) after 'group'");
     if (name.text.empty()) fail(name.at, "empty group name");
     if (name.text.find('/') != std::string::npos) {
-      fail(name.at, "group name " + quote(name.text) +
+      fail(name.at, "group name " + quoteShort(name.text) +
                         " contains '/' (write nested group blocks for a subgroup)");
     }
     if (depth > kMaxGroupDepth) {
@@ -398,7 +407,7 @@ class Parser {
       } else if (isWord(token, "group")) {
         parseGroup(path, depth + 1);
       } else {
-        unexpected(token, "'cmd', 'group' or '}' closing group " + quote(path) +
+        unexpected(token, "'cmd', 'group' or '}' closing group " + quoteShort(path) +
                               " (opened at line " + std::to_string(keyword.at.line) + ")");
       }
     }
@@ -409,7 +418,7 @@ class Parser {
     const Token name = expectKind(TokenKind::kString, "the script name (a string) after 'script'");
     if (name.text.empty()) fail(name.at, "empty script name");
     if (const SheetScript* first = sheet_.script(name.text)) {
-      fail(name.at, "duplicate script name " + quote(name.text) + " (first defined at line " +
+      fail(name.at, "duplicate script name " + quoteShort(name.text) + " (first defined at line " +
                         std::to_string(first->line) + ")");
     }
     expectSymbol("{", "'{' after the script name");
@@ -457,7 +466,7 @@ class Parser {
         unexpected(keyword,
                    "an action ('start', 'stop', 'restart', 'wait' or 'run_script') or "
                    "'}' closing script " +
-                       quote(script.name));
+                       quoteShort(script.name));
       }
       expectSymbol(";", "';' after the action");
       script.actions.push_back(std::move(action));
@@ -503,13 +512,13 @@ class Parser {
         const Position at = reference_at_[s][a];
         if (action.kind == SheetAction::Kind::kRunScript) {
           if (!sheet_.script(action.script)) {
-            fail(at,
-                 "script " + quote(script.name) + " runs unknown script " + quote(action.script));
+            fail(at, "script " + quoteShort(script.name) + " runs unknown script " +
+                         quoteShort(action.script));
           }
         } else if (action.target.kind == SheetTarget::Kind::kCommand) {
           if (!sheet_.command(action.target.name)) {
-            fail(at, "script " + quote(script.name) + " names unknown command " +
-                         quote(action.target.name));
+            fail(at, "script " + quoteShort(script.name) + " names unknown command " +
+                         quoteShort(action.target.name));
           }
         } else if (action.target.kind == SheetTarget::Kind::kGroup) {
           checkGroup(script, action.target.name, at);
@@ -521,13 +530,14 @@ class Parser {
   void checkGroup(const SheetScript& script, const std::string& path, Position at) const {
     const auto& groups = sheet_.groups;
     if (std::find(groups.begin(), groups.end(), path) != groups.end()) return;
-    std::string what = "script " + quote(script.name) + " names unknown group " + quote(path);
+    std::string what =
+        "script " + quoteShort(script.name) + " names unknown group " + quoteShort(path);
     // An inner group named by its own name alone: point at the full path.
     const auto full = std::find_if(groups.begin(), groups.end(), [&](const std::string& group) {
       return group.size() > path.size() && group.ends_with("/" + path);
     });
     if (full != groups.end()) {
-      what += " (groups are named by their full path, e.g. " + quote(*full) + ")";
+      what += " (groups are named by their full path, e.g. " + quoteShort(*full) + ")";
     }
     fail(at, what);
   }
@@ -562,7 +572,7 @@ class Parser {
           for (auto frame = from; frame != stack.end(); ++frame) {
             chain += scripts[frame->first].name + " -> ";
           }
-          fail(reference_at_[s][a], "script " + quote(scripts[callee].name) +
+          fail(reference_at_[s][a], "script " + quoteShort(scripts[callee].name) +
                                         " would run itself: " + chain + scripts[callee].name);
         }
         if (state[callee] == State::kUnvisited) {

@@ -547,7 +547,7 @@ cmd "tree" {
 TEST_F(ProcmanSystem, PrintsCommandOutputPrefixedByItsId) {
   const std::string sheet = writeSheet("talker.pmd", R"PMD(
 group "chat" {
-  cmd "talker" { exec = "sh -c 'echo hello from the talker; echo and from stderr >&2'"; deputy = "dep"; }
+  cmd "talker" { exec = "sh -c 'echo hello from the talker; echo and from stderr >&2; printf \\\\033[2Jcleared\\\\n'"; deputy = "dep"; }
 }
 )PMD");
   startDeputy("dep");
@@ -560,7 +560,9 @@ group "chat" {
     const auto has = [&](const std::string& line) {
       return std::find(all.begin(), all.end(), line) != all.end();
     };
-    return has("[talker] hello from the talker") && has("[talker] and from stderr");
+    // The escape sequence is shown, not obeyed: it would clear the operator's screen.
+    return has("[talker] hello from the talker") && has("[talker] and from stderr") &&
+           has("[talker] \\x1b[2Jcleared");
   })) << sheriff.output();
   // It ran to completion, once.
   ASSERT_TRUE(waitFor([&] { return stopped(sheriff, "chat/talker", "Stopped (OK)", "0", 1); }))

@@ -356,6 +356,17 @@ TEST(SheetErrors, CommandIds) {
             "t.pmd:2:7: empty command id");
 }
 
+TEST(SheetErrors, MessagesShowNamesShortAndWithoutControlCharacters) {
+  const std::string huge = "sim/" + std::string(2 << 20, 'x');
+  EXPECT_EQ(errorOf("cmd \"" + huge + "\" { exec = \"x\"; deputy = \"d\"; }"),
+            "t.pmd:1:5: command id \"sim/" + std::string(56, 'x') +
+                "... (2097156 bytes)\" contains '/' (a command's group comes from the enclosing "
+                "group blocks)");
+  EXPECT_EQ(errorOf("cmd \"a/\x1b[2J\" { exec = \"x\"; deputy = \"d\"; }"),
+            "t.pmd:1:5: command id \"a/\\x1b[2J\" contains '/' (a command's group comes from the "
+            "enclosing group blocks)");
+}
+
 TEST(SheetErrors, GroupNames) {
   EXPECT_EQ(errorOf("group \"a/b\" { }"),
             "t.pmd:1:7: group name \"a/b\" contains '/' (write nested group blocks for a "
