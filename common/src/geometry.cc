@@ -26,6 +26,10 @@ std::string toText(const Eigen::VectorXd& v) {
 std::optional<std::string> poseError(const Eigen::Vector3d& position, const Eigen::Vector4d& wxyz,
                                      double unit_tolerance) {
   if (!position.allFinite()) return "position " + toText(position) + " is not finite";
+  if (position.cwiseAbs().maxCoeff() > kMaxCoordinate) {
+    return "position " + toText(position) + " is beyond +-" + std::to_string(kMaxCoordinate / 1e3) +
+           " km: not a pose in a local map";
+  }
   if (!wxyz.allFinite()) return "quaternion (w, x, y, z) " + toText(wxyz) + " is not finite";
   const double norm = wxyz.norm();
   if (std::abs(norm - 1.0) > unit_tolerance) {
@@ -97,18 +101,22 @@ double wrapAngle(double angle) {
   return wrapped <= -std::numbers::pi ? wrapped + 2.0 * std::numbers::pi : wrapped;
 }
 
-std::optional<std::string> PoseHistory::add(int64_t utime, const Pose& pose) {
-  if (!poses_.empty() && utime <= poses_.back().utime) {
-    return "pose at " + formatUtime(utime) + " refused: not after the newest stored pose at " +
-           formatUtime(poses_.back().utime) +
-           (utime == poses_.back().utime ? " (duplicate)" : " (time went backwards)");
-  }
+PoseHistory::PoseHistory(PoseHistoryOptions options)
+    : options_(options), timeline_("pose", options.clock_reset_after) {}
+
+Timeline::Result PoseHistory::add(int64_t utime, const Pose& pose) {
   if (auto error = poseError(pose.position, wxyzOf(pose.orientation), kPoseHistoryUnitTolerance)) {
-    return "pose at " + formatUtime(utime) + " refused: " + *error;
+    return {Timeline::Verdict::kRefused, "pose at " + formatUtime(utime) + " refused: " + *error};
   }
+  Timeline::Result time = timeline_.offer(utime);
+  if (!time.accepted()) {
+    time.reason = "pose at " + formatUtime(utime) + " refused: " + time.reason;
+    return time;
+  }
+  if (time.verdict == Timeline::Verdict::kReanchored) poses_.clear();
   poses_.push_back({utime, Pose{pose.position, pose.orientation.normalized()}});
   while (poses_.back().utime - poses_.front().utime > options_.max_age_us) poses_.pop_front();
-  return std::nullopt;
+  return time;
 }
 
 PoseLookup PoseHistory::lookup(int64_t utime) const {
@@ -116,6 +124,7 @@ PoseLookup PoseHistory::lookup(int64_t utime) const {
   const auto ok = [](const Pose& pose) { return PoseLookup{Status::kOk, pose, {}}; };
   const std::string query = "pose at " + formatUtime(utime);
   if (poses_.empty()) return {Status::kEmpty, {}, query + ": no pose stored yet"};
+  if (utime < 0 || utime > kMaxUtime) return {Status::kTooOld, {}, query + ": not a time"};
 
   const auto after =
       std::lower_bound(poses_.begin(), poses_.end(), utime,

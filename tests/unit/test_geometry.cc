@@ -162,8 +162,10 @@ TEST(PoseArrays, RoundTripInWxyzOrder) {
 // Poses at 1.0 s and 1.1 s, 100 ms apart: within the default interpolation gap.
 PoseHistory twoPoseHistory(PoseHistoryOptions options = {}) {
   PoseHistory history(options);
-  EXPECT_FALSE(history.add(1'000'000, Pose::fromYaw(Eigen::Vector3d(0.0, 0.0, 0.0), 0.0)));
-  EXPECT_FALSE(history.add(1'100'000, Pose::fromYaw(Eigen::Vector3d(1.0, 2.0, 3.0), pi / 2)));
+  EXPECT_EQ(history.add(1'000'000, Pose::fromYaw(Eigen::Vector3d(0.0, 0.0, 0.0), 0.0)).verdict,
+            Timeline::Verdict::kAccepted);
+  EXPECT_EQ(history.add(1'100'000, Pose::fromYaw(Eigen::Vector3d(1.0, 2.0, 3.0), pi / 2)).verdict,
+            Timeline::Verdict::kAccepted);
   return history;
 }
 
@@ -240,12 +242,13 @@ TEST(PoseHistory, ToleranceAnswersInsideGapWithTheNearestPose) {
 TEST(PoseHistory, RefusesTimeGoingBackwardsAndDuplicatesWithoutChange) {
   PoseHistory history = twoPoseHistory();
   const auto backwards = history.add(1'050'000, Pose{});
-  ASSERT_TRUE(backwards.has_value());
-  EXPECT_NE(backwards->find("1.050000 s"), std::string::npos) << *backwards;
-  EXPECT_NE(backwards->find("1.100000 s"), std::string::npos) << *backwards;
+  ASSERT_FALSE(backwards.accepted());
+  EXPECT_EQ(
+      backwards.reason,
+      "pose at 1.050000 s refused: utime 1.050000 s is before the previous pose's 1.100000 s");
   const auto duplicate = history.add(1'100'000, Pose{});
-  ASSERT_TRUE(duplicate.has_value());
-  EXPECT_NE(duplicate->find("duplicate"), std::string::npos) << *duplicate;
+  ASSERT_FALSE(duplicate.accepted());
+  EXPECT_NE(duplicate.reason.find("repeats"), std::string::npos) << duplicate.reason;
 
   EXPECT_EQ(history.size(), 2u);
   EXPECT_EQ(history.newestUtime(), 1'100'000);
@@ -259,10 +262,14 @@ TEST(PoseHistory, RefusesNonFiniteAndNonUnitPoses) {
   Pose nan_pose;
   nan_pose.position.y() = std::nan("");
   const auto nan_error = history.add(1'200'000, nan_pose);
-  ASSERT_TRUE(nan_error.has_value());
-  EXPECT_NE(nan_error->find("not finite"), std::string::npos) << *nan_error;
+  ASSERT_FALSE(nan_error.accepted());
+  EXPECT_NE(nan_error.reason.find("not finite"), std::string::npos) << nan_error.reason;
   const Pose scaled{Eigen::Vector3d::Zero(), Eigen::Quaterniond(1.1, 0.0, 0.0, 0.0)};
-  EXPECT_TRUE(history.add(1'200'000, scaled).has_value());
+  EXPECT_FALSE(history.add(1'200'000, scaled).accepted());
+  // Finite but absurd: 1e18 m would overflow voxel indices in the mapper.
+  const auto far = history.add(1'200'000, Pose::fromYaw(Eigen::Vector3d(1e18, 0.0, 0.0), 0.0));
+  ASSERT_FALSE(far.accepted());
+  EXPECT_NE(far.reason.find("is beyond +-1000"), std::string::npos) << far.reason;
   EXPECT_EQ(history.size(), 2u);
   EXPECT_EQ(history.newestUtime(), 1'100'000);
 }
@@ -270,15 +277,55 @@ TEST(PoseHistory, RefusesNonFiniteAndNonUnitPoses) {
 TEST(PoseHistory, DropsPosesOlderThanMaxAge) {
   PoseHistory history({.max_age_us = 1'000'000});
   for (int64_t utime = 0; utime <= 3'000'000; utime += 100'000) {
-    ASSERT_FALSE(history.add(utime, Pose::fromYaw(Eigen::Vector3d::Zero(), 0.0)));
+    ASSERT_TRUE(history.add(utime, Pose::fromYaw(Eigen::Vector3d::Zero(), 0.0)).accepted());
   }
   EXPECT_EQ(history.size(), 11u);  // 2.0 s through 3.0 s
   EXPECT_EQ(history.oldestUtime(), 2'000'000);
   EXPECT_EQ(history.newestUtime(), 3'000'000);
   EXPECT_EQ(history.lookup(1'950'000).status, Status::kTooOld);
   EXPECT_TRUE(history.lookup(2'050'000).ok());
-  history.clear();
-  EXPECT_TRUE(history.empty());
+}
+
+// One pose stamped 11 days ahead (a corrupt estimate) made every later pose "not after the
+// newest", for good. Now ten consecutive earlier poses start a new timeline.
+TEST(PoseHistory, AFarFuturePoseCostsAtMostTenRefusalsThenTheHistoryReanchors) {
+  PoseHistory history;
+  const auto at = [](int64_t utime) {
+    return Pose::fromYaw(Eigen::Vector3d(toSeconds(utime), 0.0, 0.0), 0.0);
+  };
+  for (int64_t t = 0; t <= 1'000'000; t += 50'000) ASSERT_TRUE(history.add(t, at(t)).accepted());
+  ASSERT_TRUE(history.add(1'000'000'000'000, at(0)).accepted());
+  int refused = 0;
+  for (int64_t t = 1'050'000;; t += 50'000) {
+    const Timeline::Result result = history.add(t, at(t));
+    if (result.verdict == Timeline::Verdict::kReanchored) {
+      EXPECT_NE(result.reason.find("clock reset: 10 consecutive poses before the previous "
+                                   "timeline's 1000000.000000 s; re-anchored at 1.500000 s"),
+                std::string::npos)
+          << result.reason;
+      break;
+    }
+    ASSERT_FALSE(result.accepted()) << t;
+    ASSERT_LT(++refused, 10);
+  }
+  EXPECT_EQ(refused, 9);
+  EXPECT_EQ(history.size(), 1u);  // the old timeline is gone
+  EXPECT_EQ(history.newestUtime(), 1'500'000);
+  EXPECT_EQ(history.lookup(1'000'000).status, Status::kTooOld);
+  ASSERT_TRUE(history.add(1'550'000, at(1'550'000)).accepted());
+  ASSERT_TRUE(history.lookup(1'525'000).ok());
+  EXPECT_NEAR(history.lookup(1'525'000).pose.position.x(), 1.525, 1e-12);
+}
+
+TEST(PoseHistory, StampsThatAreNoTimeAreRefusedWithoutArithmetic) {
+  PoseHistory history = twoPoseHistory();
+  for (const int64_t utime : {INT64_MIN, int64_t{-1}, kMaxUtime + 1, INT64_MAX}) {
+    const auto result = history.add(utime, Pose{});
+    ASSERT_FALSE(result.accepted());
+    EXPECT_NE(result.reason.find("not a time"), std::string::npos) << result.reason;
+    EXPECT_EQ(history.lookup(utime).status, Status::kTooOld);
+  }
+  EXPECT_EQ(history.size(), 2u);
 }
 
 }  // namespace

@@ -125,10 +125,16 @@ void LocalPlannerNode::onState(const odometry_t& msg) {
     reportBadMessage(options_.state_channel, "velocity not finite");
     return;
   }
-  if (state_ && msg.utime <= state_->utime) {
-    reportBadMessage(options_.state_channel,
-                     "utime " + std::to_string(msg.utime) + " not after the previous estimate's");
+  // Estimates must come in time order; a run of earlier ones (a restarted estimator, or one
+  // corrupt far-future stamp overtaken) starts a new timeline, said on stderr.
+  const Timeline::Result time = state_times_.offer(msg.utime);
+  if (!time.accepted()) {
+    reportBadMessage(options_.state_channel, time.reason);
     return;
+  }
+  if (time.verdict == Timeline::Verdict::kReanchored) {
+    std::fprintf(stderr, "[%s] %s: %s\n", name().c_str(), options_.state_channel.c_str(),
+                 time.reason.c_str());
   }
   state_ = state;
   runPending();

@@ -19,6 +19,7 @@
 #include "thicket/common/map_update.h"
 #include "thicket/common/node.h"
 #include "thicket/common/params.h"
+#include "thicket/common/time.h"
 #include "thicket/local_planner/local_planner.h"
 
 namespace thicket::local_planner {
@@ -73,6 +74,7 @@ class LocalPlannerNode : public Node {
   LocalPlanner planner_;
   MapMirror<EsdfVoxel> mirror_;
   std::optional<VehicleState> state_;
+  Timeline state_times_{"estimate"};
   std::optional<int64_t> pending_;  // a revision's time waiting for its state estimate
   double last_yaw_ = 0;
   std::vector<double> solve_ms_;

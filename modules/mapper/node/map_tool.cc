@@ -107,7 +107,9 @@ int build(const std::vector<std::string>& args) {
       }
       const int64_t utime = (k + 1) * 1'000'000;
       const thicket::Pose body = thicket::Pose::fromYaw(position, yaw);
-      if (auto refused = mapper.addPose(utime, body)) return fail("pose refused: " + *refused);
+      if (const auto added = mapper.addPose(utime, body); !added.accepted()) {
+        return fail(added.reason);
+      }
       mapper.addFrame(renderer.renderImage(body, utime));
       std::vector<thicket::mapper::MapRevisionUpdate> updates;
       for (const auto& outcome : mapper.integrateReady(updates)) {

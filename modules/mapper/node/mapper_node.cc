@@ -68,11 +68,17 @@ void MapperNode::onState(const odometry_t& msg) {
     return;
   }
   auto pose = poseFromArrays(msg.position, msg.orientation);
-  std::optional<std::string> refused =
-      pose ? mapper_.addPose(msg.utime, *pose) : std::optional<std::string>(pose.error());
-  if (refused) {
-    publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED, "pose refused: " + *refused);
+  if (!pose) {
+    publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED, "pose refused: " + pose.error());
     return;
+  }
+  const Timeline::Result added = mapper_.addPose(msg.utime, *pose);
+  if (!added.accepted()) {
+    publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED, added.reason);
+    return;
+  }
+  if (added.verdict == Timeline::Verdict::kReanchored) {
+    publishStatus(msg.utime, mapper_status_t::RESULT_REANCHORED, "poses: " + added.reason);
   }
   integrateReady();
 }
@@ -84,6 +90,10 @@ std::vector<int64_t> MapperNode::integrateReady() {
   auto update = updates.begin();
   for (const FrameOutcome& outcome : outcomes) {
     handled.push_back(outcome.utime);
+    if (outcome.status == FrameOutcome::Status::kReanchored) {
+      publishStatus(outcome.utime, mapper_status_t::RESULT_REANCHORED, outcome.reason);
+      continue;
+    }
     if (outcome.status != FrameOutcome::Status::kIntegrated) {
       publishStatus(outcome.utime, mapper_status_t::RESULT_REFUSED, outcome.reason);
       continue;

@@ -34,13 +34,13 @@ Mapper::Mapper(MapperOptions options, std::function<double()> now_ms)
   }
 }
 
-std::optional<std::string> Mapper::addPose(int64_t utime, const Pose& world_T_body) {
-  if (auto refused = poses_.add(utime, world_T_body)) return refused;
-  if (!has_initial_position_) {
+Timeline::Result Mapper::addPose(int64_t utime, const Pose& world_T_body) {
+  Timeline::Result result = poses_.add(utime, world_T_body);
+  if (result.accepted() && !has_initial_position_) {
     esdf_integrator_.setInitialPosition(world_T_body.position);
     has_initial_position_ = true;
   }
-  return std::nullopt;
+  return result;
 }
 
 FrameOutcome Mapper::refuse(int64_t utime, std::string reason) {
@@ -50,12 +50,15 @@ FrameOutcome Mapper::refuse(int64_t utime, std::string reason) {
 
 FrameOutcome Mapper::addFrame(DepthImage frame) {
   const int64_t utime = frame.utime;
-  if (utime <= last_frame_utime_) {
-    return refuse(utime, "frame time " + std::to_string(utime) +
-                             " is not after the previous frame's " +
-                             std::to_string(last_frame_utime_));
+  const Timeline::Result time = frames_.offer(utime);
+  if (!time.accepted()) return refuse(utime, "frame refused: " + time.reason);
+  if (time.verdict == Timeline::Verdict::kReanchored) {
+    for (const DepthImage& old : pending_) {
+      dropped_.push_back(refuse(old.utime, "dropped with the frame timeline it belonged to"));
+    }
+    pending_.clear();
+    dropped_.push_back({FrameOutcome::Status::kReanchored, utime, "frames: " + time.reason});
   }
-  last_frame_utime_ = utime;
   pending_.push_back(std::move(frame));
   if (static_cast<int>(pending_.size()) > options_.max_pending_frames) {
     const int64_t dropped = pending_.front().utime;
@@ -70,7 +73,7 @@ FrameOutcome Mapper::addFrame(DepthImage frame) {
 }
 
 void Mapper::restore(const SavedMap& map) {
-  if (last_frame_utime_ >= 0) {
+  if (frames_.last()) {
     throw std::logic_error("Mapper::restore: frames were already taken");
   }
   if (map.tsdf.voxelSize() != options_.voxel_size || map.esdf.voxelSize() != options_.voxel_size) {
@@ -112,8 +115,16 @@ std::vector<FrameOutcome> Mapper::integrateReady(std::vector<MapRevisionUpdate>&
       continue;
     }
     const double integrated = now_ms_();
-    EsdfUpdateResult esdf =
-        esdf_integrator_.update(tsdf_, tsdf.changed_blocks, lookup.pose.position, esdf_);
+    EsdfUpdateResult esdf;
+    try {
+      esdf = esdf_integrator_.update(tsdf_, tsdf.changed_blocks, lookup.pose.position, esdf_);
+    } catch (const std::exception& e) {
+      // Never left pending to throw again with every later input. The TSDF took the frame; the
+      // ESDF misses its changes until they are observed again.
+      outcomes.push_back(refuse(frame.utime, std::string("ESDF update failed: ") + e.what()));
+      pending_.pop_front();
+      continue;
+    }
     update.esdf_ms = now_ms_() - integrated;
     update.tsdf_ms = integrated - start;
     update.tsdf_changed = std::move(tsdf.changed_blocks);

@@ -261,7 +261,10 @@ odometry_t FrameConversion::convert(const odometry_t& vio) const {
 
 // ---- the gate ---------------------------------------------------------------------------------
 
-VioBridge::VioBridge(const VioBridgeOptions& options) : options_(options), conversion_(options) {
+VioBridge::VioBridge(const VioBridgeOptions& options)
+    : options_(options),
+      conversion_(options),
+      timeline_("estimate", std::max(0, options.clock_reset_after)) {  // checked below
   const auto positive = [](const char* key, double value) {
     if (!(value > 0) || !std::isfinite(value)) {
       throw std::invalid_argument(std::string("vio_bridge: ") + key + " must be positive");
@@ -340,29 +343,15 @@ GateResult VioBridge::process(const odometry_t& vio) {
                       options_.quaternion_tolerance));
   }
 
-  // 3. Time strictly increasing, unless the clock was reset.
-  if (has_reference_ && utime <= reference_.utime) {
-    const bool continues_run =
-        utime < reference_.utime && backwards_run_ > 0 && utime > backwards_last_utime_;
-    backwards_run_ = utime < reference_.utime ? (continues_run ? backwards_run_ + 1 : 1) : 0;
-    backwards_last_utime_ = utime;
+  // 3. Time strictly increasing, unless the clock was reset (Timeline).
+  const Timeline::Result time = timeline_.offer(utime);
+  if (time.verdict != Timeline::Verdict::kAccepted) {
     health_.last_problem_utime = utime;
-    if (options_.clock_reset_after > 0 && backwards_run_ >= options_.clock_reset_after) {
-      addProblem(result, odometry_t::FLAG_TIME_BACKWARDS, odometry_t::QUALITY_LOST,
-                 "clock reset: " + std::to_string(backwards_run_) +
-                     " consecutive estimates before the previous timeline's " +
-                     formatUtime(reference_.utime) + "; re-anchored at " + formatUtime(utime));
-      ++health_.clock_resets;
-      has_reference_ = false;
-    } else {
-      addProblem(result, odometry_t::FLAG_TIME_BACKWARDS, odometry_t::QUALITY_LOST,
-                 (utime == reference_.utime ? "utime " + formatUtime(utime) + " repeats"
-                                            : "utime " + formatUtime(utime) + " is before") +
-                     " the previous estimate's " + formatUtime(reference_.utime));
-      return drop(odometry_t::FLAG_TIME_BACKWARDS, result);
-    }
+    addProblem(result, odometry_t::FLAG_TIME_BACKWARDS, odometry_t::QUALITY_LOST, time.reason);
+    if (!time.accepted()) return drop(odometry_t::FLAG_TIME_BACKWARDS, result);
+    ++health_.clock_resets;
+    has_reference_ = false;
   }
-  backwards_run_ = 0;
 
   // Accepted: convert, judge against the reference, and make it the next reference.
   result.estimate = conversion_.convert(unit);

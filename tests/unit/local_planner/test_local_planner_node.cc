@@ -431,6 +431,28 @@ TEST_F(LocalPlannerNodeTest, RefusesBadStateEstimates) {
   EXPECT_EQ(planner.latestState()->position, Eigen::Vector3d(1, 1, 1));
 }
 
+// One estimate stamped 11 days ahead made every later one "not after the previous" for the rest
+// of the mission. Now ten consecutive earlier estimates start a new timeline.
+TEST_F(LocalPlannerNodeTest, AFarFutureEstimateCostsAtMostTenEstimates) {
+  const int64_t t = 3 * kSecond;
+  world.publish("STATE_ESTIMATE", odometryAt(t, kStart));
+  world.publish("STATE_ESTIMATE", odometryAt(1'000'000 * kSecond, kStart));
+  loop.drain();
+  ASSERT_EQ(planner.latestState()->utime, 1'000'000 * kSecond);
+  const int64_t bad_before = planner.badMessageCount();
+  for (int k = 1; k <= 10; ++k) {
+    world.publish("STATE_ESTIMATE", odometryAt(t + k * kSecond / 10, Eigen::Vector3d(1, 1, k)));
+    loop.drain();
+  }
+  EXPECT_EQ(planner.badMessageCount(), bad_before + 9);
+  EXPECT_EQ(planner.latestState()->utime, t + kSecond);
+  EXPECT_EQ(planner.latestState()->position, Eigen::Vector3d(1, 1, 10));
+  world.publish("STATE_ESTIMATE", odometryAt(t + 2 * kSecond, Eigen::Vector3d(2, 2, 2)));
+  loop.drain();
+  EXPECT_EQ(planner.latestState()->utime, t + 2 * kSecond);
+  EXPECT_EQ(planner.badMessageCount(), bad_before + 9);
+}
+
 // ---- the explorer ----
 
 TEST_F(LocalPlannerNodeTest, IgnoresExplorerGoalsForCyclesThatAreNotWaiting) {

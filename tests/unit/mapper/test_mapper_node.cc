@@ -1,5 +1,6 @@
 // thicket-mapper's node in a memq:// composite: frames wait for their pose, mirrors follow the
 // map through deltas and snapshots, bad input is refused with a reason and never reaches the map.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -149,6 +150,63 @@ TEST_F(MapperNodeTest, FramesWaitForTheirPoseAndMirrorsFollowTheMap) {
   EXPECT_EQ(mapper.badMessageCount(), 0);
 }
 
+// One frame or one pose stamped 11 days ahead wedged the mapper for the rest of the mission
+// ("not after the previous"). Now each costs at most ten inputs, and mapping resumes.
+TEST_F(MapperNodeTest, AFarFutureFrameOrPoseCostsAtMostTenInputsThenMappingResumes) {
+  constexpr int64_t kFuture = 1'000'000'000'000;
+  int64_t next_pose = 0;
+  const auto posesUpTo = [&](int64_t t) {
+    for (; next_pose <= t; next_pose += 50'000) {
+      sensors.publish("STATE_ESTIMATE", poseMsg(next_pose, bodyAt(next_pose * 1e-6)));
+    }
+  };
+  // Twelve frames 0.1 s apart after `start`, each after its poses; statuses from here on.
+  const auto flyTwelveFramesAfter = [&](int64_t start) {
+    loop.drain();
+    observer.statuses.clear();
+    for (int k = 1; k <= 12; ++k) {
+      const int64_t t = start + k * 100'000;
+      posesUpTo(t);
+      sensors.publish("CAMERA_DEPTH", frameAt(renderer, t * 1e-6, t));
+      loop.drain();
+    }
+  };
+  const auto count = [&](int8_t result) {
+    return std::count_if(observer.statuses.begin(), observer.statuses.end(),
+                         [&](const mapper_status_t& s) { return s.result == result; });
+  };
+  posesUpTo(1'000'000);
+  sensors.publish("CAMERA_DEPTH", frameAt(renderer, 0.5, 500'000));
+  loop.drain();
+  ASSERT_EQ(mapper.mapper().revision(), 1);
+
+  // A frame from the future: it waits for a pose that never comes, and later frames are earlier.
+  sensors.publish("CAMERA_DEPTH", frameAt(renderer, 0.6, kFuture));
+  flyTwelveFramesAfter(1'000'000);
+  EXPECT_EQ(count(mapper_status_t::RESULT_REANCHORED), 1);
+  const mapper_status_t* reanchored = observer.last(mapper_status_t::RESULT_REANCHORED);
+  ASSERT_NE(reanchored, nullptr);
+  EXPECT_EQ(reanchored->utime, 2'000'000);
+  EXPECT_NE(reanchored->reason.find("frames: clock reset: 10 consecutive frames"),
+            std::string::npos)
+      << reanchored->reason;
+  // 9 refused, the future frame dropped, frames 10-12 integrated.
+  EXPECT_EQ(count(mapper_status_t::RESULT_REFUSED), 10);
+  EXPECT_EQ(count(mapper_status_t::RESULT_INTEGRATED), 3);
+  EXPECT_EQ(mapper.mapper().revision(), 4);
+  EXPECT_EQ(mapper.mapper().pendingFrames(), 0u);
+
+  // A pose from the future: later poses are earlier, and frames between find no pose to pair.
+  sensors.publish("STATE_ESTIMATE", poseMsg(kFuture, bodyAt(2.2)));
+  flyTwelveFramesAfter(2'200'000);
+  reanchored = observer.last(mapper_status_t::RESULT_REANCHORED);
+  ASSERT_NE(reanchored, nullptr);
+  EXPECT_NE(reanchored->reason.find("poses: clock reset: 10 consecutive poses"), std::string::npos)
+      << reanchored->reason;
+  EXPECT_GT(mapper.mapper().revision(), 4 + 3);  // mapping resumed within the twelve frames
+  EXPECT_EQ(mapper.mapper().pendingFrames(), 0u);
+}
+
 TEST_F(MapperNodeTest, BadInputIsRefusedWithAReasonAndNeverReachesTheMap) {
   for (int64_t t = 0; t <= 1'000'000; t += 50'000) {
     sensors.publish("STATE_ESTIMATE", poseMsg(t, bodyAt(t * 1e-6)));
@@ -190,7 +248,7 @@ TEST_F(MapperNodeTest, BadInputIsRefusedWithAReasonAndNeverReachesTheMap) {
   expectRefused("unknown encoding", "encoding");
 
   sensors.publish("CAMERA_DEPTH", frameAt(renderer, 0.4, 400'000));
-  expectRefused("time going backwards", "not after the previous frame");
+  expectRefused("time going backwards", "is before the previous frame's");
 
   odometry_t nan_pose = poseMsg(1'050'000, bodyAt(1.05));
   nan_pose.position[1] = NAN;
@@ -203,7 +261,8 @@ TEST_F(MapperNodeTest, BadInputIsRefusedWithAReasonAndNeverReachesTheMap) {
   expectRefused("non-unit quaternion", "pose refused");
 
   sensors.publish("STATE_ESTIMATE", poseMsg(900'000, bodyAt(0.9)));
-  expectRefused("pose time going backwards", "pose refused");
+  expectRefused("pose time going backwards",
+                "refused: utime 0.900000 s is before the previous pose's");
 
   odometry_t lost = poseMsg(1'050'000, bodyAt(1.05));
   lost.quality = odometry_t::QUALITY_LOST;

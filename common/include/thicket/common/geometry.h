@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "thicket/common/expected.h"
+#include "thicket/common/time.h"
 
 namespace thicket {
 
@@ -36,8 +37,13 @@ struct Pose {
   Eigen::Isometry3d isometry() const;
 };
 
-/// A pose from message arrays (position [m]; unit quaternion w, x, y, z). Refuses non-finite values
-/// and quaternions whose norm differs from 1 by more than unit_tolerance; renormalizes the rest.
+/// The largest coordinate a pose may have [m]: a vehicle's local map spans kilometres, and a
+/// finite but absurd position (1e18 m) would overflow voxel indices downstream.
+inline constexpr double kMaxCoordinate = 1e6;
+
+/// A pose from message arrays (position [m]; unit quaternion w, x, y, z). Refuses non-finite
+/// values, coordinates beyond ±kMaxCoordinate and quaternions whose norm differs from 1 by more
+/// than unit_tolerance; renormalizes the rest.
 Expected<Pose> poseFromArrays(const double position[3], const double orientation_wxyz[4],
                               double unit_tolerance = 1e-3);
 /// Writes a pose into message arrays (quaternion as w, x, y, z).
@@ -61,6 +67,9 @@ struct PoseHistoryOptions {
   int64_t tolerance_us = 0;
   /// Poses older than the newest by more than this are dropped [µs].
   int64_t max_age_us = 10'000'000;
+  /// This many consecutive poses before the newest, each after the one before, start a new
+  /// timeline: the history is cleared (Timeline in time.h). 0 never re-anchors.
+  int clock_reset_after = Timeline::kDefaultResetAfter;
 };
 
 /// The answer to PoseHistory::lookup.
@@ -84,12 +93,14 @@ struct PoseLookup {
 /// on kNotYet it keeps the frame pending until a newer pose arrives, never using the latest pose.
 class PoseHistory {
  public:
-  explicit PoseHistory(PoseHistoryOptions options = {}) : options_(options) {}
+  explicit PoseHistory(PoseHistoryOptions options = {});
 
   /// Stores a pose (with its quaternion renormalized) and drops those older than max_age_us. On
-  /// refusal nothing changes and the reason is returned: utime not strictly after the newest pose,
-  /// non-finite values, or a quaternion norm more than 1e-3 away from 1.
-  std::optional<std::string> add(int64_t utime, const Pose& pose);
+  /// refusal nothing changes and the reason says why: utime not strictly after the newest pose
+  /// or outside [0, kMaxUtime], non-finite values or coordinates beyond kMaxCoordinate, or a
+  /// quaternion norm more than 1e-3 away from 1. A run of earlier poses re-anchors (kReanchored,
+  /// with the reason): the history then holds only this pose.
+  Timeline::Result add(int64_t utime, const Pose& pose);
   /// The pose at utime: exact hits return the stored pose, times between two poses interpolate.
   PoseLookup lookup(int64_t utime) const;
 
@@ -97,7 +108,6 @@ class PoseHistory {
   bool empty() const { return poses_.empty(); }
   std::optional<int64_t> newestUtime() const;
   std::optional<int64_t> oldestUtime() const;
-  void clear() { poses_.clear(); }
   const PoseHistoryOptions& options() const { return options_; }
 
  private:
@@ -106,6 +116,7 @@ class PoseHistory {
     Pose pose;
   };
   PoseHistoryOptions options_;
+  Timeline timeline_;
   std::deque<Stamped> poses_;
 };
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -41,5 +42,46 @@ inline std::string formatUtime(int64_t utime) {
                 static_cast<unsigned long long>(magnitude % per_second));
   return text;
 }
+
+/// The largest utime thicket accepts (2^62 us, some 146,000 years): differences of accepted
+/// stamps cannot overflow int64.
+inline constexpr int64_t kMaxUtime = int64_t{1} << 62;
+
+/// The stamps of one input stream (poses, frames, estimates), which must increase, with a way
+/// back from a bad one. A stamp not after the last accepted one is refused. But `reset_after`
+/// consecutive refused stamps that increase among themselves mean that the stream's clock
+/// restarted (a VIO restart, a looping log) or that the last accepted stamp was bad (one
+/// far-future stamp would otherwise wedge the stream for good): the last of them is accepted and
+/// starts a new timeline (kReanchored), and the caller drops what it holds of the old one. So a
+/// single bad stamp costs at most `reset_after` refused inputs. Stamps outside [0, kMaxUtime] are
+/// refused and do not count.
+class Timeline {
+ public:
+  static constexpr int kDefaultResetAfter = 10;
+
+  enum class Verdict { kAccepted, kRefused, kReanchored };
+  struct Result {
+    Verdict verdict = Verdict::kAccepted;
+    std::string reason;  ///< why it was refused, or how it re-anchored; empty when accepted
+    bool accepted() const { return verdict != Verdict::kRefused; }
+  };
+
+  /// `what` names one input in messages ("pose", "frame", "estimate"); `reset_after` 0 never
+  /// re-anchors.
+  explicit Timeline(std::string what, int reset_after = kDefaultResetAfter);
+
+  Result offer(int64_t utime);
+  /// The last accepted stamp.
+  std::optional<int64_t> last() const { return last_; }
+  int64_t reanchors() const { return reanchors_; }
+
+ private:
+  std::string what_;
+  int reset_after_;
+  std::optional<int64_t> last_;
+  int run_ = 0;           // consecutive refused stamps before last_, each after the one before
+  int64_t run_last_ = 0;  // the last of them
+  int64_t reanchors_ = 0;
+};
 
 }  // namespace thicket

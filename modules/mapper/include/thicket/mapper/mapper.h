@@ -38,10 +38,12 @@ struct MapperOptions {
 
 /// What became of a frame.
 struct FrameOutcome {
-  enum class Status { kIntegrated, kPending, kRefused };
+  /// kReanchored: the frame clock restarted (or overtook a bad stamp) with this frame, which is
+  /// pending or integrated like any other; the frames of the old timeline were dropped.
+  enum class Status { kIntegrated, kPending, kRefused, kReanchored };
   Status status = Status::kRefused;
   int64_t utime = 0;
-  std::string reason;  ///< why it was refused, or what it waits for
+  std::string reason;  ///< why it was refused, what it waits for, or how time re-anchored
 };
 
 /// One integrated frame: the map revision it made and what changed.
@@ -62,13 +64,16 @@ class Mapper {
   /// options.
   explicit Mapper(MapperOptions options, std::function<double()> now_ms = {});
 
-  /// Adds a body pose (world_T_body) to the history. Refused (the reason returned) when not
-  /// finite, not unit, or not newer than the previous one. The first accepted pose is the
-  /// initial position (the centre of the ESDF's clear sphere).
-  std::optional<std::string> addPose(int64_t utime, const Pose& world_T_body);
+  /// Adds a body pose (world_T_body) to the history (PoseHistory::add: refused when not finite,
+  /// not unit, absurdly far or not newer than the previous one; a run of earlier poses
+  /// re-anchors the history). The first accepted pose is the initial position (the centre of the
+  /// ESDF's clear sphere).
+  Timeline::Result addPose(int64_t utime, const Pose& world_T_body);
 
-  /// Takes a decoded frame: pending until its pose is known, or refused. Call integrateReady()
-  /// after this and after addPose() to integrate what became ready.
+  /// Takes a decoded frame: pending until its pose is known, or refused. Frame times must
+  /// increase; a run of earlier frames re-anchors (Timeline): the pending frames of the old
+  /// timeline are dropped and integrateReady() reports them and the re-anchoring. Call
+  /// integrateReady() after this and after addPose() to integrate what became ready.
   FrameOutcome addFrame(DepthImage frame);
 
   /// Integrates, in utime order, every pending frame whose pose is known, and refuses those
@@ -105,7 +110,7 @@ class Mapper {
   bool has_initial_position_ = false;
   std::deque<DepthImage> pending_;     // utime order
   std::vector<FrameOutcome> dropped_;  // pending frames pushed out; reported by integrateReady
-  int64_t last_frame_utime_ = -1;      // the newest frame accepted (pending or integrated)
+  Timeline frames_{"frame"};           // stamps of the frames accepted (pending or integrated)
   int64_t revision_ = 0;
   int64_t utime_ = 0;
   int64_t frames_refused_ = 0;

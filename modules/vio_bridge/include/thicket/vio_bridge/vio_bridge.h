@@ -51,6 +51,7 @@
 
 #include "thicket/common/geometry.h"
 #include "thicket/common/params.h"
+#include "thicket/common/time.h"
 
 namespace thicket::vio_bridge {
 
@@ -206,9 +207,8 @@ class VioBridge {
   bool has_reference_ = false;
   Reference reference_;
   Carried carried_;
-  /// The current run of estimates earlier than the reference and increasing among themselves.
-  int backwards_run_ = 0;
-  int64_t backwards_last_utime_ = 0;
+  /// The estimates' stamps: strictly increasing, re-anchored after a clock reset.
+  Timeline timeline_;
   VioBridgeHealth health_;
 };
 
