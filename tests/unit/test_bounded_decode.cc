@@ -8,13 +8,13 @@
 #include <cstdint>
 #include <cstdlib>
 #include <new>
-#include <random>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "known_lcm_types.h"
+#include "lcm_fuzz.h"
 #include "thicket/common/lcm_schema.h"
 #include "thicket/common/node.h"
 
@@ -54,57 +54,8 @@ void operator delete[](void* p, size_t) noexcept {
 namespace thicket {
 namespace {
 
-// A value of `type` with every integer 1 (so every variable array has one element), every real
-// 0.5 and every string "ab".
-LcmValue sampleValue(const LcmStruct& type);
-
-LcmValue sampleElement(const LcmField& field) {
-  if (!field.is_primitive) return sampleValue(*field.type);
-  LcmValue value;
-  if (field.primitive == Primitive::kString) {
-    value.kind = LcmValue::Kind::kString;
-    value.text = "ab";
-    return value;
-  }
-  value.primitive = field.primitive;
-  value.bits = field.primitive == Primitive::kDouble  ? 0x3FE0000000000000ull
-               : field.primitive == Primitive::kFloat ? 0x3F000000ull
-                                                      : 1;
-  return value;
-}
-
-LcmValue sampleArray(const LcmField& field, size_t dimension) {
-  if (dimension == field.dimensions.size()) return sampleElement(field);
-  const LcmDimension& d = field.dimensions[dimension];
-  const int64_t count = d.variable ? 1 : d.size;
-  LcmValue value;
-  const bool bytes = dimension + 1 == field.dimensions.size() && field.is_primitive &&
-                     field.primitive == Primitive::kByte;
-  if (bytes) {
-    value.kind = LcmValue::Kind::kBytes;
-    value.bytes.assign(static_cast<size_t>(count), 7);
-    return value;
-  }
-  value.kind = LcmValue::Kind::kArray;
-  for (int64_t i = 0; i < count; ++i) value.items.push_back(sampleArray(field, dimension + 1));
-  return value;
-}
-
-LcmValue sampleValue(const LcmStruct& type) {
-  LcmValue value;
-  value.kind = LcmValue::Kind::kStruct;
-  value.type = &type;
-  for (const LcmField& field : type.fields) value.items.push_back(sampleArray(field, 0));
-  return value;
-}
-
-std::vector<uint8_t> sampleBytes(const char* name) {
-  const LcmStruct* type = builtinLcmTypes().find(name);
-  if (type == nullptr) throw std::runtime_error(std::string("no built-in type ") + name);
-  auto bytes = builtinLcmTypes().encode(sampleValue(*type));
-  if (!bytes) throw std::runtime_error(bytes.error());
-  return *bytes;
-}
+using fuzz::sampleBytes;
+using fuzz::writeBigEndian32;
 
 // What one decode did: its error (empty when accepted) and the bytes it allocated.
 struct Outcome {
@@ -135,11 +86,6 @@ uint64_t allocationBound(size_t size) {
   return 64 * static_cast<uint64_t>(size) + (64u << 10);
 }
 
-void writeBigEndian32(std::vector<uint8_t>& bytes, size_t at, uint32_t value) {
-  for (int i = 0; i < 4; ++i)
-    bytes[at + static_cast<size_t>(i)] = static_cast<uint8_t>(value >> (24 - 8 * i));
-}
-
 template <class Msg>
 void fuzzType(const char* name) {
   SCOPED_TRACE(name);
@@ -158,14 +104,9 @@ void fuzzType(const char* name) {
     if (!outcome.error.empty()) ++refused;
   };
 
-  const uint32_t counts[] = {0x7FFFFFFF, 0x10000001, 0xFFFFFFFF, 0x80000000, 0, 2};
-  for (size_t at = 8; at + 4 <= sample.size(); ++at) {
-    for (uint32_t count : counts) {
-      std::vector<uint8_t> bytes = sample;
-      writeBigEndian32(bytes, at, count);
-      expectSafe(bytes, "0x" + std::to_string(count) + " at byte " + std::to_string(at));
-    }
-  }
+  const std::vector<fuzz::Bytes> hostile = fuzz::hostileMessages(name, 300, 7);
+  for (size_t i = 0; i < hostile.size(); ++i)
+    expectSafe(hostile[i], "message " + std::to_string(i));
   for (size_t size = 0; size < sample.size(); ++size) {
     const std::vector<uint8_t> cut(sample.begin(), sample.begin() + static_cast<long>(size));
     const Outcome outcome = decodeCounting<Msg>(cut);
@@ -175,14 +116,6 @@ void fuzzType(const char* name) {
   std::vector<uint8_t> longer = sample;
   longer.push_back(0);
   EXPECT_NE(decodeCounting<Msg>(longer).error.find("1 unexpected bytes"), std::string::npos);
-
-  std::mt19937 random(7);
-  for (int i = 0; i < 300; ++i) {
-    std::vector<uint8_t> bytes(sample.begin(), sample.begin() + 8);  // a valid fingerprint
-    bytes.resize(8 + random() % 160);
-    for (size_t b = 8; b < bytes.size(); ++b) bytes[b] = static_cast<uint8_t>(random());
-    expectSafe(bytes, "random message " + std::to_string(i));
-  }
   EXPECT_GT(refused, 0);
 }
 
