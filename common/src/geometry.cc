@@ -27,7 +27,8 @@ std::optional<std::string> poseError(const Eigen::Vector3d& position, const Eige
                                      double unit_tolerance) {
   if (!position.allFinite()) return "position " + toText(position) + " is not finite";
   if (position.cwiseAbs().maxCoeff() > kMaxCoordinate) {
-    return "position " + toText(position) + " is beyond +-" + std::to_string(kMaxCoordinate / 1e3) +
+    return "position " + toText(position) + " is beyond +-" +
+           std::to_string(static_cast<int64_t>(kMaxCoordinate / 1e3)) +
            " km: not a pose in a local map";
   }
   if (!wxyz.allFinite()) return "quaternion (w, x, y, z) " + toText(wxyz) + " is not finite";

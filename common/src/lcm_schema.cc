@@ -9,6 +9,7 @@
 #include <iterator>
 #include <optional>
 #include <set>
+#include <span>
 #include <stdexcept>
 
 namespace thicket {
@@ -455,17 +456,16 @@ class Decoder {
 // element (primitives other than strings, structs of such), given the values of the enclosing
 // struct's size fields; nullopt otherwise. Saturates at UINT64_MAX.
 std::optional<uint64_t> fixedWireSize(const LcmField& field, size_t dimension,
-                                      const std::vector<int64_t>& sizes, int depth = 0);
+                                      std::span<const int64_t> sizes, int depth = 0);
 
 std::optional<uint64_t> fixedStructSize(const LcmStruct& type, int depth) {
   if (depth > kMaxNesting) return std::nullopt;
   uint64_t total = 0;
-  const std::vector<int64_t> no_sizes(type.fields.size(), 0);
   for (const LcmField& field : type.fields) {
     for (const LcmDimension& d : field.dimensions) {
       if (d.variable) return std::nullopt;
     }
-    const auto size = fixedWireSize(field, 0, no_sizes, depth + 1);
+    const auto size = fixedWireSize(field, 0, {}, depth + 1);  // no variable sizes to look up
     if (!size) return std::nullopt;
     total = (total > UINT64_MAX - *size) ? UINT64_MAX : total + *size;
   }
@@ -473,7 +473,7 @@ std::optional<uint64_t> fixedStructSize(const LcmStruct& type, int depth) {
 }
 
 std::optional<uint64_t> fixedWireSize(const LcmField& field, size_t dimension,
-                                      const std::vector<int64_t>& sizes, int depth) {
+                                      std::span<const int64_t> sizes, int depth) {
   uint64_t element = 0;
   if (!field.is_primitive) {
     const auto size = fixedStructSize(*field.type, depth);
@@ -518,7 +518,7 @@ class Checker {
 
  private:
   std::optional<std::string> checkField(const LcmField& field, size_t dimension,
-                                        const std::vector<int64_t>& sizes, int depth) {
+                                        std::span<const int64_t> sizes, int depth) {
     if (dimension == field.dimensions.size()) return checkElement(field, depth);
     const LcmDimension& d = field.dimensions[dimension];
     const int64_t count = d.variable ? sizes[d.size_field_index] : d.size;
@@ -819,7 +819,8 @@ std::string LcmTypeSet::check(const LcmStruct& type, const void* data, size_t si
   }
   if (fingerprint != type.fingerprint) {
     char text[160];
-    std::snprintf(text, sizeof text, "fingerprint 0x%016llx is not %s (0x%016llx)",
+    std::snprintf(text, sizeof text,
+                  "fingerprint 0x%016llx is not %s (0x%016llx): a message of another type",
                   static_cast<unsigned long long>(fingerprint), type.fullName().c_str(),
                   static_cast<unsigned long long>(type.fingerprint));
     return text;

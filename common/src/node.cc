@@ -30,27 +30,13 @@ std::string exactChannelPattern(const std::string& channel) {
 
 std::string checkEncodedMessage(const void* data, size_t size, int64_t expected_hash,
                                 const char* type_name) {
-  char text[256];
-  if (size < 8) {
-    std::snprintf(text, sizeof(text), "%zu bytes is too short for any %s", size, type_name);
-    return text;
-  }
-  uint64_t fingerprint = 0;
-  readFingerprint(data, size, fingerprint);
-  if (fingerprint != static_cast<uint64_t>(expected_hash)) {
-    std::snprintf(text, sizeof(text),
-                  "fingerprint 0x%016" PRIx64 " is not %s (0x%016" PRIx64
-                  "): wrong type on channel",
-                  fingerprint, type_name, static_cast<uint64_t>(expected_hash));
-    return text;
-  }
   if (size > static_cast<size_t>(INT32_MAX)) {
-    std::snprintf(text, sizeof(text), "%s of %zu bytes: more than LCM can decode", type_name, size);
-    return text;
+    return std::string(type_name) + " of " + std::to_string(size) +
+           " bytes: more than LCM can decode";
   }
-  const LcmStruct* type = builtinLcmTypes().findByFingerprint(fingerprint);
+  const LcmStruct* type = builtinLcmTypes().findByFingerprint(static_cast<uint64_t>(expected_hash));
   if (type == nullptr) return std::string(type_name) + " is not one of thicket's LCM types";
-  return LcmTypeSet::check(*type, data, size);
+  return LcmTypeSet::check(*type, data, size);  // too short, another type's fingerprint, ...
 }
 
 Node::Node(std::string name, lcm::LCM& lcm) : name_(std::move(name)), lcm_(lcm) {}
