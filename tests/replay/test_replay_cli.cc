@@ -98,6 +98,9 @@ TEST_F(ReplayCli, WrongArgumentsSayWhatIsWrong) {
       {"record" + out + " --scenario moon --density 0.1 --seed 1 --method none", "moon"},
       {"record" + out + " --scenario paper --density 0.1 --seed 1 --method none --replans 0",
        "--replans must be an integer from 1 to 100000, not '0'"},
+      {"record" + out + " --scenario paper --density 0.1 --seed 1 --method none" +
+           " --dynamic-obstacle yes",
+       "--dynamic-obstacle must be on or off, not 'yes'"},
       {"record-references --logs", "--logs needs a value"},
   };
   for (const Case& c : cases) {

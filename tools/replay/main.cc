@@ -21,7 +21,7 @@ using thicket::replay::FlightSpec;
 constexpr const char* kUsage =
     "usage: thicket-replay check LOG [--method M] [--max-diffs N] [--lcmtypes DIR]\n"
     "       thicket-replay record --out LOG --scenario S --density D --seed N --method M\n"
-    "                             [--replans R]\n"
+    "                             [--replans R] [--dynamic-obstacle on|off]\n"
     "       thicket-replay record-references [--logs DIR]\n"
     "\n"
     "check    replays LOG into the real VIO bridge, mapper, explorer (unless the method is\n"
@@ -38,7 +38,9 @@ constexpr const char* kUsage =
     "         real graph in this process and records it to LOG (the inputs and outputs of the\n"
     "         replayed modules, SIM_WORLD and SIM_EVENT), then checks that it replays exactly.\n"
     "         --scenario S (paper, eth, forest50 or a .yaml), --density D, --seed N (the world's\n"
-    "         seed), --method M (none or an explorer strategy), --replans R (default 60)\n"
+    "         seed), --method M (none or an explorer strategy), --replans R (default 60),\n"
+    "         --dynamic-obstacle on|off (the simulator's tree that appears on the committed\n"
+    "         path, as in E6; default off)\n"
     "record-references\n"
     "         regenerates every reference log, logs/<name>.lcmlog.ref, and checks each replays\n"
     "         exactly and stays under 5 MB (20 MB in all). Run it when behaviour changes on\n"
@@ -172,8 +174,8 @@ int check(const std::vector<std::string>& args) {
 }
 
 int record(const std::vector<std::string>& args) {
-  const Arguments parsed =
-      parseArguments(args, {"--out", "--scenario", "--density", "--seed", "--method", "--replans"});
+  const Arguments parsed = parseArguments(args, {"--out", "--scenario", "--density", "--seed",
+                                                 "--method", "--replans", "--dynamic-obstacle"});
   if (!parsed.error.empty()) return usageError(parsed.error);
   if (!parsed.positional.empty()) {
     return usageError("unexpected argument '" + parsed.positional[0] + "'");
@@ -199,6 +201,13 @@ int record(const std::vector<std::string>& args) {
                         parsed.flags.at("--replans") + "'");
     }
     flight.replans = static_cast<int>(value);
+  }
+  if (parsed.flags.count("--dynamic-obstacle")) {
+    const std::string& on = parsed.flags.at("--dynamic-obstacle");
+    if (on != "on" && on != "off") {
+      return usageError("--dynamic-obstacle must be on or off, not '" + on + "'");
+    }
+    flight.dynamic_obstacle = on == "on";
   }
   if (const auto invalid = thicket::replay::validateFlight(flight)) return usageError(*invalid);
   return recordAndCheck(flight, parsed.flags.at("--out")) < 0 ? 1 : 0;
