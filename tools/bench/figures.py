@@ -32,6 +32,12 @@ STYLE = {
     "rrt_star_conservative": ("#9467bd", "^"),
     "nbvp": ("#8c564b", "D"),
     "local_exploration": ("#1f77b4", "o"),
+    "frontier_memory": ("#e377c2", "*"),
+    "local_exploration_look": ("#17becf", "P"),
+    "local_exploration_reachable": ("#bcbd22", "X"),
+    "frontier_memory_flat": ("#2ca02c", "h"),
+    "frontier_memory_no_yaw": ("#000000", "d"),
+    "frontier_memory_no_memory": ("#ff9896", "p"),
     "line": ("#7f7f7f", "s"),
     "gradient": ("#ff7f0e", "^"),
     "soft": ("#1f77b4", "o"),
@@ -62,14 +68,43 @@ def ordered_groups(rows, key):
     return groups
 
 
+# The paper's methods and the one beyond it; any other variant of E2 is an ablation.
+MAIN_METHODS = ["none", "random", "rrt_star_optimistic", "rrt_star_conservative", "nbvp",
+                "local_exploration", "frontier_memory"]
+# What an ablation is compared with, drawn beside the ablations.
+ABLATION_REFERENCES = ["local_exploration", "frontier_memory"]
+
+
 def success_vs_density(table, png, title):
     """Success rate vs density, one line per variant, with its Wilson 95 % interval: a band for
-    up to three variants, else error bars side by side (six overlapping bands are unreadable)."""
+    up to three variants, else error bars side by side (six overlapping bands are unreadable).
+    When the table has ablations as well as methods, two panels: the methods, then the ablations
+    beside what they ablate."""
     groups = ordered_groups(read_csv(table), "variant")
+    ablations = [v for v in groups if v not in MAIN_METHODS and v not in LABEL]
+    if ablations and any(v in MAIN_METHODS for v in groups):
+        panels = [("the paper's methods and frontier_memory",
+                   {v: rows for v, rows in groups.items() if v in MAIN_METHODS}),
+                  ("ablations",
+                   {v: groups[v] for v in ABLATION_REFERENCES + ablations if v in groups})]
+    else:
+        panels = [(None, groups)]
+    fig, axes = plt.subplots(1, len(panels), figsize=(SIZE[0] * len(panels), SIZE[1]),
+                             squeeze=False)
+    for ax, (subtitle, panel) in zip(axes[0], panels):
+        success_panel(ax, panel)
+        ax.set_title(title if subtitle is None else subtitle)
+    if len(panels) > 1:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(png, dpi=DPI)
+    plt.close(fig)
+
+
+def success_panel(ax, groups):
     densities = sorted({float(r["density"]) for rows in groups.values() for r in rows})
     step = min((b - a for a, b in zip(densities, densities[1:])), default=0.05)
     bands = len(groups) <= 3
-    fig, ax = plt.subplots(figsize=SIZE)
     for i, (variant, rows) in enumerate(groups.items()):
         rows.sort(key=lambda r: float(r["density"]))
         x = [float(r["density"]) for r in rows]
@@ -91,12 +126,8 @@ def success_vs_density(table, png, title):
     ax.set_xlabel("density [obstacles / m²]")
     ax.set_ylabel("success rate")
     ax.set_ylim(-0.02, 1.02)
-    ax.set_title(title)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8, loc="lower left")
-    fig.tight_layout()
-    fig.savefig(png, dpi=DPI)
-    plt.close(fig)
 
 
 def e3_path_length(table, png):
