@@ -1029,7 +1029,7 @@ TEST_F(BenchReport, RefusesMissingColumnsAndRepeatedTrials) {
       out + "/trials.csv line 3: trial E2/paper/d0.1/none/soft/depth/s0 is already on line 2");
 }
 
-// A trials.csv of a thicket-bench before the planning radius's oracle (docs/results has one): its
+// A trials.csv of a thicket-bench before the planning radius's oracle (older runs have one): its
 // solvable is the collision radius's; the planning radius's columns are unknown, and said so.
 TEST_F(BenchReport, OldTrialsWithoutThePlanningOracleAreReadAsUnknown) {
   const std::string md = oldReport(Format::kBeforePlanningOracle, e1Rows());
