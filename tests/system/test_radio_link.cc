@@ -1,0 +1,221 @@
+// The vehicle + ground split over a radio link, as two network namespaces joined by a veth pair:
+// the vehicle's graph talks on its own bus (ttl=0 on its loopback), thicket-lcm-bridge copies
+// what crosses to the link's bus, and the ground listens there. With the link down the vehicle's
+// bus loses nothing (every message of a 100 Hz stream arrives on board), the bridge says the link
+// is down, and once the link is back traffic crosses again both ways.
+#include <fcntl.h>
+#include <sched.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+extern char** environ;
+
+namespace {
+
+const char* const kVehicleUrl = "udpm://239.255.76.67:7667?ttl=0";
+const char* const kLinkUrl = "udpm://239.255.76.68:7668?ttl=1";
+
+bool run(const std::string& command) {
+  return std::system((command + " > /dev/null 2>&1").c_str()) == 0;
+}
+
+// The test's own namespace (the ground) and a named one (the vehicle), joined by a veth pair
+// g0 -- v0. The ground routes multicast over the link; the vehicle routes its own bus's group
+// over its loopback and the rest of multicast over the link.
+class Link {
+ public:
+  Link() : name_(std::string(kPrefix) + std::to_string(::getpid())) {
+    if (::unshare(CLONE_NEWNET) != 0) return;
+    removeStale();
+    ground_ = ::open("/proc/self/ns/net", O_RDONLY);
+    if (!run("ip netns add " + name_)) return;
+    created_ = true;
+    vehicle_ = ::open(("/run/netns/" + name_).c_str(), O_RDONLY);
+    ok_ = ground_ >= 0 && vehicle_ >= 0 &&
+          run("ip link set lo up multicast on && ip link add g0 type veth peer name v0 netns " +
+              name_) &&
+          run("ip addr add 10.77.0.1/24 dev g0 && ip link set g0 up multicast on && "
+              "ip route add 224.0.0.0/4 dev g0") &&
+          inVehicle(
+              "ip link set lo up multicast on && ip addr add 10.77.0.2/24 dev v0 && "
+              "ip route add 239.255.76.67/32 dev lo && ip link set v0 up multicast on && "
+              "ip route add 224.0.0.0/4 dev v0");
+  }
+  ~Link() {
+    if (created_) run("ip netns del " + name_);
+    if (ground_ >= 0) ::close(ground_);
+    if (vehicle_ >= 0) ::close(vehicle_);
+  }
+  bool ok() const { return ok_; }
+  bool inVehicle(const std::string& command) const {
+    return run("ip netns exec " + name_ + " sh -c '" + command + "'");
+  }
+  // Runs `f` with this thread in the vehicle's namespace (sockets keep the namespace they were
+  // made in; children inherit it).
+  void asVehicle(const std::function<void()>& f) const {
+    ASSERT_EQ(::setns(vehicle_, CLONE_NEWNET), 0);
+    f();
+    ASSERT_EQ(::setns(ground_, CLONE_NEWNET), 0);
+  }
+  // The radio drops (routes through v0 go with it), then comes back (the network configuration
+  // puts the route back, as systemd-networkd or ifupdown would).
+  bool drop() const { return inVehicle("ip link set v0 down"); }
+  bool restore() const {
+    return inVehicle("ip link set v0 up && ip route replace 224.0.0.0/4 dev v0");
+  }
+
+ private:
+  static constexpr const char* kPrefix = "thicket-radio-";
+  // The namespaces (and what runs in them) of earlier runs of this test that died before their
+  // cleanup: named after a process that is gone.
+  static void removeStale() {
+    std::error_code error;
+    for (const auto& entry : std::filesystem::directory_iterator("/run/netns", error)) {
+      const std::string name = entry.path().filename().string();
+      if (name.rfind(kPrefix, 0) != 0) continue;
+      const pid_t owner = static_cast<pid_t>(std::atol(name.c_str() + std::strlen(kPrefix)));
+      if (owner > 0 && (::kill(owner, 0) == 0 || errno != ESRCH)) continue;
+      run("ip netns pids " + name + " | xargs -r kill -9; ip netns del " + name);
+    }
+  }
+
+  std::string name_;
+  int ground_ = -1, vehicle_ = -1;
+  bool created_ = false, ok_ = false;
+};
+
+// Sequence numbers heard on one channel of one bus.
+struct Heard {
+  Heard(lcm::LCM& lcm, const std::string& channel) {
+    lcm.subscribeFunction(
+        channel,
+        +[](const lcm::ReceiveBuffer* rbuf, const std::string&, Heard* self) {
+          self->numbers.insert(
+              std::stoi(std::string(static_cast<const char*>(rbuf->data), rbuf->data_size)));
+        },
+        this);
+  }
+  std::set<int> numbers;
+};
+
+void publishNumber(lcm::LCM& lcm, const std::string& channel, int k) {
+  const std::string text = std::to_string(k);
+  lcm.publish(channel, text.data(), static_cast<unsigned>(text.size()));
+}
+
+// Handles both buses for about `ms` milliseconds.
+void serve(lcm::LCM& a, lcm::LCM& b, int ms) {
+  for (int i = 0; i < ms / 5; ++i) {
+    a.handleTimeout(0);
+    b.handleTimeout(5);
+  }
+}
+
+TEST(RadioLink, TheVehicleBusKeepsTalkingThroughALinkOutage) {
+  Link link;
+  if (!link.ok()) GTEST_SKIP() << "no network namespaces and veth pairs here (needs root)";
+
+  // LCM's udpm opens its receiving socket at the first subscription: the vehicle's bus subscribes
+  // inside the vehicle's namespace.
+  std::unique_ptr<lcm::LCM> vehicle;
+  std::unique_ptr<Heard> status_on_board, goal_on_board;
+  pid_t bridge = -1;
+  const std::string output = ::testing::TempDir() + "/bridge_" + std::to_string(::getpid());
+  link.asVehicle([&] {
+    vehicle = std::make_unique<lcm::LCM>(kVehicleUrl);
+    status_on_board = std::make_unique<Heard>(*vehicle, "STATUS");
+    goal_on_board = std::make_unique<Heard>(*vehicle, "GOAL");
+    ASSERT_GE(vehicle->getFileno(), 0);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, output.c_str(),
+                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+    const std::string vehicle_flag = std::string("--vehicle=") + kVehicleUrl;
+    const std::string link_flag = std::string("--link=") + kLinkUrl;
+    const char* argv[] = {THICKET_LCM_BRIDGE, vehicle_flag.c_str(), link_flag.c_str(),
+                          "--up=STATUS",      "--down=GOAL",        nullptr};
+    ASSERT_EQ(posix_spawn(&bridge, THICKET_LCM_BRIDGE, &actions, nullptr,
+                          const_cast<char* const*>(argv), environ),
+              0);
+    posix_spawn_file_actions_destroy(&actions);
+  });
+  // Whatever ends the test, the bridge does not outlive it.
+  const std::unique_ptr<pid_t, void (*)(pid_t*)> reaper(&bridge, [](pid_t* pid) {
+    if (*pid > 0 && ::kill(*pid, SIGKILL) == 0) ::waitpid(*pid, nullptr, 0);
+  });
+  lcm::LCM ground(kLinkUrl);
+  ASSERT_TRUE(vehicle && vehicle->good() && ground.good());
+  Heard status_on_ground(ground, "STATUS");
+  ASSERT_GE(ground.getFileno(), 0);
+
+  // Up: the status crosses to the ground, a goal from the ground to the vehicle (until the
+  // bridge is subscribed; a deadline, not a sleep, ends the wait).
+  int k = 0;
+  const auto crosses = [&](int deadline_ms) {
+    const int first = k;
+    for (int t = 0; t < deadline_ms; t += 10) {
+      publishNumber(*vehicle, "STATUS", ++k);
+      publishNumber(ground, "GOAL", k);
+      serve(*vehicle, ground, 10);
+      if (status_on_ground.numbers.lower_bound(first + 1) != status_on_ground.numbers.end() &&
+          goal_on_board->numbers.lower_bound(first + 1) != goal_on_board->numbers.end()) {
+        return true;
+      }
+    }
+    return false;
+  };
+  ASSERT_TRUE(crosses(10000));
+
+  // Down: 200 statuses at 100 Hz, every one of them on board, none on the ground.
+  ASSERT_TRUE(link.drop());
+  const int before = k;
+  for (int i = 0; i < 200; ++i) {
+    publishNumber(*vehicle, "STATUS", ++k);
+    serve(*vehicle, ground, 10);
+  }
+  serve(*vehicle, ground, 100);
+  int on_board = 0, on_ground = 0;
+  for (int n = before + 1; n <= k; ++n) {
+    on_board += status_on_board->numbers.count(n) ? 1 : 0;
+    on_ground += status_on_ground.numbers.count(n) ? 1 : 0;
+  }
+  EXPECT_EQ(on_board, 200);
+  EXPECT_EQ(on_ground, 0);
+
+  // Back: both ways again.
+  ASSERT_TRUE(link.restore());
+  EXPECT_TRUE(crosses(10000));
+
+  ASSERT_EQ(::kill(bridge, SIGTERM), 0);
+  int status = 0;
+  ASSERT_EQ(::waitpid(bridge, &status, 0), bridge);
+  bridge = -1;
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  std::ifstream in(output);
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string said = text.str();
+  EXPECT_NE(said.find("link down"), std::string::npos) << said;
+  EXPECT_NE(said.find("link back"), std::string::npos) << said;
+  EXPECT_NE(said.find("stopping: up"), std::string::npos) << said;
+}
+
+}  // namespace
