@@ -2,7 +2,9 @@
 // the vehicle's graph talks on its own bus (ttl=0 on its loopback), thicket-lcm-bridge copies
 // what crosses to the link's bus, and the ground listens there. With the link down the vehicle's
 // bus loses nothing (every message of a 100 Hz stream arrives on board), the bridge says the link
-// is down, and once the link is back traffic crosses again both ways.
+// is down, and once the link is back traffic crosses again both ways. Then the same with
+// config/vehicle.pmd: the ground's sheriff brings the vehicle's graph up through the bridge, the
+// radio drops, the on-board log keeps every state estimate, and the sheriff shuts it down after.
 #include <fcntl.h>
 #include <sched.h>
 #include <signal.h>
@@ -24,6 +26,10 @@
 
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
+#include <thicket/odometry_t.hpp>
+
+#include "procman_test_support.h"
+#include "thicket/common/lcm_log.h"
 
 extern char** environ;
 
@@ -216,6 +222,141 @@ TEST(RadioLink, TheVehicleBusKeepsTalkingThroughALinkOutage) {
   EXPECT_NE(said.find("link down"), std::string::npos) << said;
   EXPECT_NE(said.find("link back"), std::string::npos) << said;
   EXPECT_NE(said.find("stopping: up"), std::string::npos) << said;
+}
+
+// config/vehicle.pmd with its paths made absolute and its log in the test's folder.
+std::string vehicleSheet(const std::string& log_stem) {
+  std::string sheet =
+      thicket::procman::test_support::readFile(THICKET_SOURCE_DIR "/config/vehicle.pmd");
+  const auto replaceAll = [&sheet](const std::string& from, const std::string& to) {
+    for (size_t at = sheet.find(from); at != std::string::npos;
+         at = sheet.find(from, at + to.size())) {
+      sheet.replace(at, from.size(), to);
+    }
+  };
+  replaceAll("\"build/", std::string("\"") + THICKET_BINARY_DIR + "/");
+  replaceAll(" config/", std::string(" ") + THICKET_SOURCE_DIR + "/config/");
+  replaceAll("logs/vehicle.lcm", log_stem);
+  const std::string path = ::testing::TempDir() + "/vehicle_" + std::to_string(::getpid()) + ".pmd";
+  std::ofstream(path) << sheet;
+  return path;
+}
+
+thicket::odometry_t vioAt(int k) {
+  thicket::odometry_t vio{};
+  vio.utime = 1'000'000 + 10'000 * static_cast<int64_t>(k);
+  vio.sequence = k;
+  vio.position[0] = 0.001 * k;
+  vio.position[2] = 1.5;
+  vio.orientation[0] = 1;
+  vio.quality = thicket::odometry_t::QUALITY_GOOD;
+  return vio;
+}
+
+TEST(RadioLink, TheVehicleSheetRunsThroughALinkOutage) {
+  using thicket::procman::test_support::ChildProcess;
+  const thicket::procman::test_support::DescendantReaper reaper;
+  Link link;
+  if (!link.ok()) GTEST_SKIP() << "no network namespaces and veth pairs here (needs root)";
+  const std::string log_stem = ::testing::TempDir() + "/vehicle_log_" + std::to_string(::getpid());
+  const std::string sheet = vehicleSheet(log_stem);
+
+  std::unique_ptr<lcm::LCM> vehicle;
+  std::unique_ptr<ChildProcess> bridge, deputy;
+  link.asVehicle([&] {
+    vehicle = std::make_unique<lcm::LCM>(kVehicleUrl);
+    bridge = std::make_unique<ChildProcess>(
+        std::vector<std::string>{THICKET_LCM_BRIDGE, std::string("--vehicle=") + kVehicleUrl,
+                                 std::string("--link=") + kLinkUrl, "--report=1"});
+    deputy = std::make_unique<ChildProcess>(
+        std::vector<std::string>{THICKET_DEPUTY, "-i", "vehicle", "-u", kVehicleUrl});
+  });
+  lcm::LCM ground(kLinkUrl);
+  std::set<int64_t> states_on_ground;
+  ground.subscribeFunction(
+      "STATE_ESTIMATE",
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string&, std::set<int64_t>* seen) {
+        thicket::odometry_t state;
+        if (state.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) > 0) {
+          seen->insert(state.utime);
+        }
+      },
+      &states_on_ground);
+  ASSERT_GE(ground.getFileno(), 0);
+
+  const auto sheriff = [&](const std::string& script) {
+    ChildProcess run({THICKET_SHERIFF, "--exit-after-script", "--wait-timeout", "60", "-u",
+                      kLinkUrl, sheet, script});
+    const bool done = run.waitExit(90);
+    EXPECT_TRUE(done && run.exitCode() == 0) << script << ":\n" << run.output();
+    return done && run.exitCode() == 0;
+  };
+  ASSERT_TRUE(sheriff("bringup")) << "bridge:\n"
+                                  << bridge->output() << "deputy:\n"
+                                  << deputy->output();
+
+  // The VIO at 100 Hz (of message time, paced by the loop) until the ground hears the state...
+  int k = 0;
+  const auto fly = [&](int count) {
+    for (int i = 0; i < count; ++i) {
+      const thicket::odometry_t vio = vioAt(++k);
+      vehicle->publish("VIO_ODOMETRY", &vio);
+      const auto next = std::chrono::steady_clock::now() + std::chrono::milliseconds(10);
+      while (std::chrono::steady_clock::now() < next) ground.handleTimeout(2);
+    }
+  };
+  const auto heard = [&](int from) {
+    return states_on_ground.lower_bound(vioAt(from).utime) != states_on_ground.end();
+  };
+  // ... and the on-board logger has written (it flushes every second once it records).
+  const auto logging = [&] {
+    std::error_code error;
+    return std::filesystem::file_size(log_stem + ".00", error) > 0 && !error;
+  };
+  for (int i = 0; i < 1000 && !(heard(1) && logging()); ++i) fly(1);
+  ASSERT_TRUE(heard(1)) << bridge->output();
+  std::error_code size_error;
+  ASSERT_TRUE(logging()) << std::filesystem::file_size(log_stem + ".00", size_error) << " "
+                         << size_error.message() << "\n"
+                         << deputy->output();
+
+  ASSERT_TRUE(link.drop());
+  const int first_dark = k + 1;
+  fly(200);
+  const int last_dark = k;
+  ASSERT_TRUE(link.restore());
+  const int back = k + 1;
+  for (int i = 0; i < 1000 && !heard(back); ++i) fly(1);
+  EXPECT_TRUE(heard(back)) << bridge->output();
+  for (int n = first_dark; n <= last_dark; ++n) {
+    EXPECT_EQ(states_on_ground.count(vioAt(n).utime), 0u) << n;
+  }
+
+  ASSERT_TRUE(sheriff("shutdown"));
+  // The on-board log holds every state estimate of the outage.
+  std::set<int64_t> logged;
+  thicket::LogReader reader(log_stem + ".00");
+  while (const auto event = reader.next()) {
+    thicket::odometry_t state;
+    if (event->channel == "STATE_ESTIMATE" && event->decode(state).empty()) {
+      logged.insert(state.utime);
+    }
+  }
+  EXPECT_TRUE(reader.error().empty()) << reader.error();
+  int missing = 0;
+  std::string which;
+  for (int n = first_dark; n <= last_dark; ++n) {
+    if (logged.count(vioAt(n).utime) == 0) {
+      ++missing;
+      which += " " + std::to_string(n);
+    }
+  }
+  EXPECT_EQ(missing, 0) << "of " << last_dark - first_dark + 1 << " state estimates:" << which
+                        << " (first " << first_dark << ", logged " << logged.size() << ")";
+  EXPECT_NE(bridge->output().find("link down"), std::string::npos) << bridge->output();
+  std::error_code ignored;
+  std::filesystem::remove(log_stem + ".00", ignored);
+  std::filesystem::remove(sheet, ignored);
 }
 
 }  // namespace
