@@ -24,6 +24,10 @@ void LocalPlannerNodeOptions::declare(Params& p) {
     Range::between(0, 100));
   p("setpoint_rate", setpoint_rate, "CONTROL_SETPOINT messages per second; 0: none [Hz]",
     Range::between(0, 1000));
+  p("explorer_timeout", explorer_timeout,
+    "a stuck cycle the explorer has not answered within this many wall-clock seconds is closed "
+    "holding (the explorer died or restarted); 0: wait [s]",
+    Range::between(0, 3600));
 }
 
 namespace {
@@ -264,6 +268,27 @@ void LocalPlannerNode::onExplorerGoal(const goal_t& msg) {
   const std::optional<DistanceField> field = mirrorField();
   const CycleReport report = planner_.answer(goal, reason, field ? &*field : nullptr);
   publishReport(report, now_ms_() - t0);
+}
+
+bool LocalPlannerNode::expireExplorerWait(int64_t now_us) {
+  const std::optional<int64_t> waiting = planner_.waitingCycle();
+  if (!waiting || options_.explorer_timeout <= 0) {
+    waiting_since_.reset();
+    return false;
+  }
+  if (!waiting_since_ || waiting_since_->first != *waiting) {
+    waiting_since_ = std::make_pair(*waiting, now_us);
+    return false;
+  }
+  const double waited = static_cast<double>(now_us - waiting_since_->second) * 1e-6;
+  if (waited < options_.explorer_timeout) return false;
+  waiting_since_.reset();
+  char reason[120];
+  std::snprintf(reason, sizeof reason, "no answer within %.1f s (is the explorer running?)",
+                waited);
+  const std::optional<DistanceField> field = mirrorField();
+  publishReport(planner_.answer(std::nullopt, reason, field ? &*field : nullptr), 0);
+  return true;
 }
 
 bool LocalPlannerNode::publishSetpoint(int64_t utime) {

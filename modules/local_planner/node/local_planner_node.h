@@ -10,6 +10,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <thicket/goal_t.hpp>
@@ -31,6 +32,10 @@ struct LocalPlannerNodeOptions {
   double replan_rate = 0;
   /// CONTROL_SETPOINT messages per wall-clock second (the executable's timer); 0: none.
   double setpoint_rate = 50;
+  /// A stuck cycle whose explorer answer has not come within this many wall-clock seconds is
+  /// closed holding (the explorer died or was restarted meanwhile); the next cycle asks again.
+  /// 0: wait for the answer however long (the executable's timer checks twice a second).
+  double explorer_timeout = 5;
 
   void declare(Params& p);
 };
@@ -52,6 +57,10 @@ class LocalPlannerNode : public Node {
   bool publishSetpoint(int64_t utime);
   /// The newest state estimate, if any.
   const std::optional<VehicleState>& latestState() const { return state_; }
+  /// The explorer timeout's check at wall-clock time `now_us` (the executable's timer): a
+  /// cycle seen waiting `explorer_timeout` seconds before is closed holding, and its final
+  /// status published. Returns whether it closed one.
+  bool expireExplorerWait(int64_t now_us);
 
   /// "N cycles (planned P, stuck S, ...); optimization median X ms, p95 Y ms".
   std::string summary() const;
@@ -76,6 +85,8 @@ class LocalPlannerNode : public Node {
   std::optional<VehicleState> state_;
   Timeline state_times_{"estimate"};
   std::optional<int64_t> pending_;  // a revision's time waiting for its state estimate
+  // The cycle last seen waiting for the explorer, and the wall-clock time it was first seen [us].
+  std::optional<std::pair<int64_t, int64_t>> waiting_since_;
   double last_yaw_ = 0;
   std::vector<double> solve_ms_;
   std::vector<int64_t> state_counts_;

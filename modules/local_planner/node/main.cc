@@ -43,6 +43,9 @@ int main(int argc, char** argv) {
         node.publishSetpoint(seen_utime + (now - seen_at));
       });
     }
+    if (options.explorer_timeout > 0) {
+      loop.addTimer(500'000, [&node] { node.expireExplorerWait(thicket::steadyClockMicros()); });
+    }
     loop.run();
     std::printf("%s: %s\n", program.c_str(), node.summary().c_str());
     return 0;

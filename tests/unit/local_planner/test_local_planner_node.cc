@@ -523,6 +523,62 @@ TEST_F(LocalPlannerNodeExplorerTest, AStuckCycleWaitsForTheExplorersAnswer) {
   EXPECT_EQ(planner.planner().intermediateGoal()->id, 41);
 }
 
+TEST_F(LocalPlannerNodeExplorerTest, AnUnansweredStuckCycleIsClosedAfterTheExplorerTimeout) {
+  // Stuck in front of the wall, and no explorer answers (it died, or is being restarted).
+  const int64_t t = 5 * kSecond;
+  world.publish("MISSION_GOAL", goalMsg(31, {Eigen::Vector3d(6, 0, 1.5)}));
+  world.publish("STATE_ESTIMATE", odometryAt(t, Eigen::Vector3d(1.75, 0, 1.5)));
+  publishAll(snapshot(wallEsdf(), t, 1));
+  loop.drain();
+  ASSERT_TRUE(planner.planner().waitingCycle());
+  const int64_t cycle = *planner.planner().waitingCycle();
+  recorder.clear();
+  // The timer's checks (wall clock in microseconds): first seen waiting at 100 s; still waiting
+  // 4.9 s later; closed at 5 s, holding, with its final status.
+  const int64_t seen = 100 * kSecond;
+  EXPECT_FALSE(planner.expireExplorerWait(seen));
+  EXPECT_FALSE(planner.expireExplorerWait(seen + 4'900'000));
+  loop.drain();
+  EXPECT_TRUE(recorder.statuses.empty());
+  EXPECT_TRUE(planner.expireExplorerWait(seen + 5'000'000));
+  loop.drain();
+  ASSERT_EQ(recorder.statuses.size(), 1u);
+  const planner_status_t& closed = recorder.statuses[0];
+  EXPECT_EQ(closed.cycle, cycle);
+  EXPECT_TRUE(closed.is_final);
+  EXPECT_EQ(closed.state, +planner_status_t::STATE_HOLDING);
+  EXPECT_TRUE(contains(closed.reason, "no answer within 5.0 s")) << closed.reason;
+  EXPECT_FALSE(planner.planner().waitingCycle());
+  EXPECT_FALSE(planner.expireExplorerWait(seen + 9 * kSecond));  // nothing waits any more
+  // A late answer closes nothing.
+  goal_t late = goalMsg(41, {Eigen::Vector3d(1.75, 2.5, 1.5)}, goal_t::SOURCE_EXPLORER);
+  late.cycle = cycle;
+  world.publish("EXPLORER_GOAL", late);
+  loop.drain();
+  ASSERT_EQ(recorder.statuses.size(), 2u);
+  EXPECT_EQ(recorder.statuses[1].state, +planner_status_t::STATE_REJECTED_GOAL);
+  EXPECT_FALSE(recorder.statuses[1].is_final);
+}
+
+TEST(LocalPlannerNode, WithoutAnExplorerTimeoutAStuckCycleWaits) {
+  lcm::LCM lcm{"memq://"};
+  Loop loop{lcm};
+  LocalPlannerNodeOptions options = nodeOptions(true);
+  options.explorer_timeout = 0;
+  LocalPlannerNode planner{lcm, options};
+  Node world{"world", lcm};
+  world.publish("MISSION_GOAL", goalMsg(31, {Eigen::Vector3d(6, 0, 1.5)}));
+  world.publish("STATE_ESTIMATE", odometryAt(5 * kSecond, Eigen::Vector3d(1.75, 0, 1.5)));
+  for (const map_update_t& part : snapshot(wallEsdf(), 5 * kSecond, 1)) {
+    world.publish("MAP_ESDF", part);
+  }
+  loop.drain();
+  ASSERT_TRUE(planner.planner().waitingCycle());
+  EXPECT_FALSE(planner.expireExplorerWait(0));
+  EXPECT_FALSE(planner.expireExplorerWait(3600 * kSecond));
+  EXPECT_TRUE(planner.planner().waitingCycle());
+}
+
 // ---- the re-check ----
 
 TEST_F(LocalPlannerNodeTest, ARevisionThatBlocksTheCommittedTrajectoryStops) {
