@@ -50,8 +50,8 @@ int main(int argc, char** argv) {
   double report = 5.0;
   app.add_option("--vehicle", vehicle_url, "the vehicle's bus")->capture_default_str();
   app.add_option("--link", link_url,
-                 "the bus shared with the ground, e.g. "
-                 "udpm://239.255.76.68:7668?ttl=1")
+                 "the bus shared with the ground: a udpm URL on a group of its own routed over "
+                 "the radio, with the ttl the radio needs (README, Two hosts)")
       ->required();
   app.add_option("--up", up, "channels copied to the link (regex)")->capture_default_str();
   app.add_option("--up-exclude", up_exclude,
