@@ -53,9 +53,10 @@ struct Method {
 };
 // The paper's semantics, whatever config/sim ships (frontier_memory's options): the vehicle faces
 // along its velocity, no look around, waypoints one by one (no carrot), no stall watchdog, no
-// escape slack.
+// escape slack, no retreat.
 constexpr const char* kPaperExplorer = "{fixed_yaw: false, look_around: {enabled: false}}";
-constexpr const char* kPaperPlanner = "{carrot: false, stall_cycles: 0, loco: {escape_slack: 0}}";
+constexpr const char* kPaperPlanner =
+    "{carrot: false, stall_cycles: 0, retreat: 0, loco: {escape_slack: 0}}";
 // Proposals flown facing their yaws, and a look around at each new stuck place.
 constexpr const char* kLookExplorer = "{fixed_yaw: true, look_around: {enabled: true}}";
 // The stall watchdog.

@@ -155,8 +155,8 @@ class FrontierMemorySelector final : public GoalSelector {
       return path;
     };
 
-    // A verified path to the goal.
-    if (std::isfinite(costAt(request.goal)) &&
+    // A verified path to the goal, unless it failed from here.
+    if (std::isfinite(costAt(request.goal)) && !(o.memory && tabu(next, request.goal)) &&
         esdfFree(options_, *maps.esdf, request.goal, options_.min_clearance)) {
       proposal = pathTo(request.goal, std::nullopt);
       proposal.reason = "a verified path to the goal";

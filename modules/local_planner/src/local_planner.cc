@@ -69,6 +69,11 @@ void LocalPlannerOptions::declare(Params& p) {
     "follow a goal's waypoints as a path: end each trajectory, at rest, at the farthest point of "
     "the polyline within the horizon a free straight segment reaches (the soft goal as fallback); "
     "false: a soft goal toward each waypoint in turn (the paper)");
+  p("retreat", retreat,
+    "a stuck cycle left with nothing to fly, its reference less than this outside the clearance "
+    "margin or inside it, backs straight away from the nearest obstacle to this much outside the "
+    "margin; 0: off (the paper) [m]",
+    Range::between(0, 1));
 }
 
 bool Watchdog::stalled(int64_t goal_id, size_t waypoint, int64_t cycle,
@@ -117,6 +122,7 @@ LocalPlanner::LocalPlanner(LocalPlannerOptions options, std::function<double()> 
       !positive(options_.max_map_age) || !positive(options_.hover_duration) ||
       !(options_.yaw_tolerance >= 0 && options_.yaw_tolerance <= M_PI) ||
       options_.stall_cycles < 0 || !positive(options_.stall_distance) ||
+      !(options_.retreat >= 0 && options_.retreat <= 1) ||
       !options_.flight_volume_min.allFinite() || !options_.flight_volume_max.allFinite() ||
       !(options_.flight_volume_min.array() < options_.flight_volume_max.array()).all()) {
     throw std::invalid_argument(
@@ -252,6 +258,18 @@ LocalPlanner::Tracked LocalPlanner::track(const Goal& goal, Progress& progress,
   }
   if (look(goal, waypoint, field, report)) return Tracked::kCommitted;
   return planToward(goal, progress, field, report) ? Tracked::kCommitted : Tracked::kFailed;
+}
+
+void LocalPlanner::retreat(const DistanceField& field, CycleReport& report) {
+  if (options_.retreat <= 0) return;
+  const std::optional<Retreat> back =
+      planRetreat(report.utime, report.start, field, options_.loco, options_.retreat);
+  if (!back) return;
+  commit(back->trajectory, report.vehicle_yaw, report);
+  report.state = CycleState::kPlanned;
+  report.horizon_goal = back->trajectory.evaluate(back->trajectory.duration());
+  report.reason += format("; backing away from the nearest obstacle, clearance %.3f to %.3f m",
+                          back->from_distance, back->to_distance);
 }
 
 void LocalPlanner::hold(CycleReport& report, CycleState state, const std::string& reason,
@@ -457,7 +475,9 @@ bool LocalPlanner::planToward(const Goal& goal, Progress& progress, const Distan
     return false;
   }
   progress.waypoint = to;
-  if (report.carrot) progress.carrot = c->position;
+  // A soft-goal flight leaves the polyline: the path restarts from where it ends (a carrot kept
+  // from before could lie behind it, and the next cycle fly back to it).
+  progress.carrot = report.carrot ? std::optional<Eigen::Vector3d>(c->position) : std::nullopt;
   const std::optional<double> yaw = flightYaw(waypointYaw(goal, to), *trajectory);
   report.state = CycleState::kPlanned;
   report.reason.clear();
@@ -581,6 +601,7 @@ CycleReport LocalPlanner::answerCycle(const std::optional<Goal>& goal, const std
   const auto give_up = [&](const std::string& why) {
     report.state = CycleState::kHolding;
     report.reason = "stuck (" + stuck + "); " + why;
+    if (map_field != nullptr) retreat(fenced(*map_field), report);
     return report;
   };
   if (!mission_) return give_up("the mission was cancelled");

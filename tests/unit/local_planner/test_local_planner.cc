@@ -141,11 +141,12 @@ class Pilot {
   void check(const CycleReport& report, const DistanceField& field) const {
     if (report.state == CycleState::kPlanned) {
       EXPECT_TRUE(report.trajectory) << "cycle " << report.cycle;
-      // A planned cycle explains itself only when it replaced a blocked trajectory, looks, or
-      // turns before it flies.
+      // A planned cycle explains itself only when it replaced a blocked trajectory, looks,
+      // turns before it flies, or backs away from an obstacle.
       EXPECT_EQ(report.reason.empty(), report.blocked.empty() &&
                                            !report.reason.starts_with("looking") &&
-                                           !report.reason.starts_with("turning"))
+                                           !report.reason.starts_with("turning") &&
+                                           !contains(report.reason, "backing away"))
           << report.reason;
     }
     if (!report.trajectory) return;
@@ -1471,6 +1472,49 @@ TEST(LocalPlanner, AVehicleInsideTheMarginLeavesItWithoutComingCloser) {
   EXPECT_TRUE(reached);
 }
 
+TEST(LocalPlanner, AStuckVehicleAtTheMarginBacksAwayWhenNothingElseFlies) {
+  // At rest 0.6 m before a wall across the way (inside the 0.62 m acceptance clearance), the
+  // mission beyond it: every plan is refused, and so is the explorer's goal behind the wall.
+  const DistanceField field = wall();
+  const Eigen::Vector3d start(1.9, 0, 1.5);
+  LocalPlannerOptions options = withExplorer();
+  const double required = options.loco.robot_radius + options.loco.clearance_margin;
+  ASSERT_LT(field(start).distance, required);
+  const auto stuckAnswer = [&](double retreat) {
+    options.retreat = retreat;
+    Pilot pilot(options, start);
+    EXPECT_FALSE(pilot.planner.setMissionGoal(goalAt(1, {kMission})));
+    const CycleReport stuck = pilot.cycle(field);
+    EXPECT_EQ(stuck.state, CycleState::kStuck) << stuck.reason;
+    const CycleReport answered = pilot.planner.answer(
+        goalAt(5, {Eigen::Vector3d(5, 0.5, 1.5)}, /*from_explorer=*/true), "behind", &field);
+    pilot.check(answered, field);
+    return answered;
+  };
+  // Off (the paper's planner): it holds where it is.
+  const CycleReport held = stuckAnswer(0);
+  EXPECT_EQ(held.state, CycleState::kHolding);
+  EXPECT_FALSE(held.trajectory);
+  // On: it backs straight away from the wall to 0.1 m outside the margin, never closer than it
+  // started, and says so after why it was stuck.
+  const CycleReport backed = stuckAnswer(0.1);
+  ASSERT_EQ(backed.state, CycleState::kPlanned) << backed.reason;
+  EXPECT_TRUE(backed.is_final);
+  EXPECT_TRUE(backed.reason.starts_with("stuck (")) << backed.reason;
+  EXPECT_TRUE(contains(backed.reason, "the intermediate goal is infeasible too")) << backed.reason;
+  EXPECT_TRUE(contains(backed.reason, "backing away from the nearest obstacle, clearance 0.600 to"))
+      << backed.reason;
+  ASSERT_TRUE(backed.trajectory);
+  const PolynomialTrajectory& t = *backed.trajectory;
+  const Eigen::Vector3d end = t.evaluate(t.duration());
+  EXPECT_NEAR(end.y(), 0, 1e-9);
+  EXPECT_NEAR(end.z(), 1.5, 1e-9);
+  EXPECT_GE(field(end).distance, required + 0.1 - 1e-9);
+  EXPECT_LT(field(end).distance, required + 0.1 + 0.05);
+  EXPECT_GE(inspectTrajectory(t, field, 0.01).min_distance, field(start).distance - 1e-9);
+  EXPECT_LT(t.evaluate(t.duration(), 1).norm(), 1e-9);  // at rest at the end
+}
+
 // ---- determinism ----
 
 TEST(LocalPlanner, SameInputsGiveIdenticalTrajectories) {
@@ -1518,6 +1562,9 @@ TEST(LocalPlanner, RefusesBadOptions) {
   EXPECT_THROW(build([](LocalPlannerOptions& o) { o.goal_finder.method = "bogus"; }),
                std::invalid_argument);
   EXPECT_THROW(build([](LocalPlannerOptions& o) { o.loco.v_max = 0; }), std::invalid_argument);
+  EXPECT_THROW(build([](LocalPlannerOptions& o) { o.retreat = -0.1; }), std::invalid_argument);
+  EXPECT_THROW(build([](LocalPlannerOptions& o) { o.retreat = std::nan(""); }),
+               std::invalid_argument);
 }
 
 }  // namespace

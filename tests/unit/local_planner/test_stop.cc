@@ -1,13 +1,15 @@
 // The emergency stop and the clearance check it shares with the acceptance test: the minimum-jerk
 // stop is the optimum and ends at rest; planStop keeps the limits, stops within a physical
 // distance, picks the hardest stop when only that one clears an obstacle, and says so when none
-// does; checkClearance samples at the trajectory's own 0.02 s grid, whatever `from` is.
+// does; planRetreat backs straight away from an obstacle, or gives nothing when it cannot;
+// checkClearance samples at the trajectory's own 0.02 s grid, whatever `from` is.
 #include "thicket/local_planner/stop.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -263,6 +265,89 @@ TEST(PlanStop, RefusesANonFiniteStart) {
       planStop(kUtime, stateAt(kStart, Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 0, nan)),
                freeSpace(), o),
       std::invalid_argument);
+}
+
+// ---- planRetreat ----
+
+TEST(PlanRetreat, BacksStraightAwayFromAPostToBeyondTheMargin) {
+  const LocoOptions o;
+  const DistanceField post = testing::cylinderField({0, 0}, 1.0);
+  // At rest inside the margin (0.6 m), and just outside it (0.65 m): out to 0.1 m beyond the
+  // margin along the direction of the 26 nearest the ray from the axis (the shortest way out),
+  // never closer than it starts.
+  for (const double clearance : {0.6, 0.65}) {
+    SCOPED_TRACE("clearance " + std::to_string(clearance));
+    const Eigen::Vector3d from =
+        Eigen::Vector3d(0.6, 0.8, 0) * (1.0 + clearance) + Eigen::Vector3d(0, 0, 1.5);
+    const TrajectoryState start = stateAt(from, Eigen::Vector3d::Zero());
+    const std::optional<Retreat> back = planRetreat(kUtime, start, post, o, 0.1);
+    ASSERT_TRUE(back);
+    EXPECT_NEAR(back->from_distance, clearance, 1e-12);
+    EXPECT_GE(back->to_distance, required(o) + 0.1);
+    EXPECT_LT(back->to_distance, required(o) + 0.1 + 0.05 + 1e-12);  // the first 5 cm step beyond
+    const PolynomialTrajectory& t = back->trajectory;
+    EXPECT_EQ(t.startUtime(), kUtime);
+    expectFromStartToRest(t, start);
+    const Eigen::Vector3d end = t.evaluate(t.duration());
+    EXPECT_NEAR(post(end).distance, back->to_distance, 1e-12);
+    // Along (1, 1, 0), 8 degrees off the ray, at the same height: as few steps as along
+    // (1, 1, -1), farther out.
+    const Eigen::Vector3d way = end - from;
+    EXPECT_NEAR(way.x(), way.y(), 1e-9);
+    EXPECT_GT(way.x(), 0);
+    EXPECT_NEAR(way.z(), 0, 1e-12);
+    EXPECT_TRUE(withinLimits(t, o));
+    const testing::TrajectoryReport flown = inspectTrajectory(t, post, 0.01);
+    EXPECT_GE(flown.min_distance, clearance - 1e-9) << "at t = " << flown.min_distance_time;
+  }
+}
+
+TEST(PlanRetreat, NothingWhenThereIsNoNeedOrNoWayOut) {
+  const LocoOptions o;
+  const TrajectoryState rest = stateAt(kStart, Eigen::Vector3d::Zero());
+  // Already 0.1 m beyond the margin.
+  EXPECT_FALSE(planRetreat(kUtime, rest, freeSpace(required(o) + 0.1), o, 0.1));
+  // An unknown start.
+  EXPECT_FALSE(planRetreat(kUtime, rest, unknownBeyondX(freeSpace(), -1), o, 0.1));
+  // Between two walls 1.2 m apart: 0.6 m from each, no way out to the margin.
+  const DistanceField gap = boxesField({boxFromCorners({-1.6, -50, -50}, {-0.6, 50, 50}),
+                                        boxFromCorners({0.6, -50, -50}, {1.6, 50, 50})});
+  ASSERT_NEAR(gap(kStart).distance, 0.6, 1e-12);
+  EXPECT_FALSE(planRetreat(kUtime, rest, gap, o, 0.1));
+  // Everything unknown beyond 2 cm from the start.
+  const DistanceField post = testing::cylinderField({kStart.x() - 1.6, kStart.y()}, 1.0);
+  ASSERT_NEAR(post(kStart).distance, 0.6, 1e-12);
+  ASSERT_TRUE(planRetreat(kUtime, rest, post, o, 0.1));
+  const DistanceField seen = testing::withUnknown(
+      post, [](const Eigen::Vector3d& p) { return (p - kStart).norm() > 0.02; });
+  EXPECT_FALSE(planRetreat(kUtime, rest, seen, o, 0.1));
+  // A ridge between two posts 1.2 m apart: out along the ridge, where an ascent of the gradient
+  // would zigzag across it.
+  const DistanceField posts = [](const Eigen::Vector3d& p) {
+    const EsdfSample a = testing::cylinderSample({0, 1.6}, 1.0, p);
+    const EsdfSample b = testing::cylinderSample({0, -1.6}, 1.0, p);
+    return a.distance < b.distance ? a : b;
+  };
+  const TrajectoryState between = stateAt(Eigen::Vector3d(0, 0, 1.5), Eigen::Vector3d::Zero());
+  const std::optional<Retreat> along = planRetreat(kUtime, between, posts, o, 0.1);
+  ASSERT_TRUE(along);
+  const Eigen::Vector3d out = along->trajectory.evaluate(along->trajectory.duration());
+  EXPECT_NEAR(out.y(), 0, 1e-9);
+  EXPECT_NEAR(out.z(), 1.5, 1e-9);
+  EXPECT_GE(posts(out).distance, required(o) + 0.1);
+  // Moving fast toward the post: any flight from there comes closer first.
+  EXPECT_FALSE(planRetreat(kUtime, stateAt(kStart, Eigen::Vector3d(-1, 0, 0)), post, o, 0.1));
+}
+
+TEST(PlanRetreat, RefusesANonFiniteStartAndABadDistance) {
+  const LocoOptions o;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const TrajectoryState rest = stateAt(kStart, Eigen::Vector3d::Zero());
+  EXPECT_THROW(planRetreat(kUtime, stateAt(Eigen::Vector3d(nan, 0, 1), Eigen::Vector3d::Zero()),
+                           freeSpace(), o, 0.1),
+               std::invalid_argument);
+  EXPECT_THROW(planRetreat(kUtime, rest, freeSpace(), o, 0), std::invalid_argument);
+  EXPECT_THROW(planRetreat(kUtime, rest, freeSpace(), o, nan), std::invalid_argument);
 }
 
 // ---- checkClearance ----

@@ -149,6 +149,12 @@ struct LocalPlannerOptions {
   /// the current waypoint is the fallback. Waypoints before the carrot are passed, and only the
   /// last one's yaw must be reached (the others' yaws are flown toward them).
   bool carrot = false;
+  /// When a stuck cycle ends with nothing to fly (the explorer's answer refused too, or none)
+  /// and the reference is less than this outside the clearance margin, or inside it, the vehicle
+  /// backs straight away from the nearest obstacle to this much outside the margin (planRetreat,
+  /// stop.h), facing as it is: from there the next cycle's plans need not graze the margin. 0:
+  /// off (the paper's planner) [m].
+  double retreat = 0;
 
   void declare(Params& p);
 };
@@ -273,6 +279,9 @@ class LocalPlanner {
             const std::optional<Eigen::Vector3d>& position);
   void commit(const PolynomialTrajectory& trajectory, const std::optional<double>& yaw,
               CycleReport& report);
+  // A stuck cycle's last resort (option `retreat`): commits the retreat, when there is one, and
+  // reports the cycle planned, the retreat appended to its reason.
+  void retreat(const DistanceField& field, CycleReport& report);
   // Advances past reached waypoints (position, and yaw where the goal has one) at the report's
   // reference and yaw; true when the whole goal is reached.
   bool advanceWaypoints(const Goal& goal, size_t& waypoint, const CycleReport& report) const;
