@@ -250,6 +250,8 @@ typename MapMirror<Voxel>::Result MapMirror<Voxel>::apply(const map_update_t& ms
   if (!r.full_snapshot) {
     if (!layer_) return needSnapshot("no map yet");
     if (r.map_id != map_id_) return needSnapshot("a new map id " + std::to_string(r.map_id));
+    // The first revision of a map again: its mapper restarted empty under a fixed map id.
+    if (r.revision == 1 && revision_ > 1) return needSnapshot("the mapper restarted");
     if (r.revision <= revision_) {
       return {Outcome::kIgnored, "revision " + std::to_string(r.revision) + " is not newer than " +
                                      std::to_string(revision_)};

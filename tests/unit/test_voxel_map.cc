@@ -228,6 +228,11 @@ TEST(MapMirror, AppliesDeltasInOrderAndHealsGapsWithASnapshot) {
   // A restarted mapper (new map id) needs a snapshot too, even at the next revision number.
   const auto restarted = encodeMapUpdate(mapper, {70, 2, 7, false}, {}, {});
   EXPECT_EQ(mirror.apply(restarted[0]).outcome, Outcome::kNeedSnapshot);
+  // So does one that restarted empty under a fixed map id: its revisions start over at 1, which
+  // would otherwise be ignored as old until they overtook the mirror's.
+  const auto again = mirror.apply(delta(1, {})[0]);
+  EXPECT_EQ(again.outcome, Outcome::kNeedSnapshot);
+  EXPECT_EQ(again.reason, "the mapper restarted");
 }
 
 TEST(MapMirror, ALostPartDropsTheRevision) {

@@ -434,6 +434,8 @@ TrialGraphOptions trialGraphOptions(const std::string& method, const std::string
   graph.bridge = loadParams<vio_bridge::VioBridgeNodeOptions>(dir + "/vio_bridge.yaml");
   graph.mapper = loadParams<mapper::MapperNodeOptions>(dir + "/mapper.yaml");
   graph.mapper.map_id = static_cast<int64_t>(seed) + 1;
+  // A trial's graph lives in one process, never respawned, and trials run side by side.
+  graph.mapper.checkpoint.clear();
   const Eigen::Vector3d volume_min = (bounds_min.array() + robot_radius).matrix();
   const Eigen::Vector3d volume_max = (bounds_max.array() - robot_radius).matrix();
   if (strategy.strategy != nullptr) {

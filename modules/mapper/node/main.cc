@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
     if (const std::string saved = node.saveIfConfigured(); !saved.empty()) {
       std::printf("%s: map saved to %s\n", program.c_str(), saved.c_str());
     }
+    node.removeCheckpoint();  // a clean stop: only a crash leaves the checkpoint behind
     return 0;
   });
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <stdexcept>
 
 #include <thicket/map_update_t.hpp>
@@ -10,6 +11,7 @@
 #include "thicket/common/depth_image.h"
 #include "thicket/common/map_update.h"
 #include "thicket/common/statistics.h"
+#include "thicket/common/time.h"
 
 namespace thicket::mapper {
 
@@ -22,12 +24,40 @@ void MapperNodeOptions::declare(Params& p) {
     Range::between(16, 900));
   p("load_map", load_map, "a saved map to continue from; empty: start with an empty map");
   p("save_map", save_map, "where to save the map when the node stops; empty: not saved");
+  p("checkpoint", checkpoint,
+    "crash recovery: the map saved here every checkpoint_period and continued by a restarted "
+    "mapper, removed at a clean stop; empty: off");
+  p("checkpoint_period", checkpoint_period, "message time between checkpoints [s]",
+    Range::positive());
+  p("checkpoint_max_age", checkpoint_max_age,
+    "a checkpoint older than this at the first message is another flight's [s]", Range::positive());
 }
 
 MapperNode::MapperNode(lcm::LCM& lcm, const MapperNodeOptions& options, int64_t map_id,
                        std::function<double()> now_ms)
-    : Node("mapper", lcm), options_(options), map_id_(map_id), mapper_(options.mapper, now_ms) {
-  if (!options_.load_map.empty()) {
+    : Node("mapper", lcm),
+      options_(options),
+      map_id_(map_id),
+      now_ms_(now_ms),
+      mapper_(options.mapper, now_ms) {
+  std::string restored;
+  if (!options_.checkpoint.empty() && std::filesystem::exists(options_.checkpoint)) {
+    auto saved = loadMap(options_.checkpoint);
+    if (saved && saved->start && saved->esdf.voxelSize() == options_.mapper.voxel_size) {
+      mapper_.restore(*saved, true);
+      map_id_ = saved->map_id + 1;
+      restored_utime_ = saved->utime;
+      restored = "continued the checkpoint " + options_.checkpoint + " (map " +
+                 std::to_string(saved->map_id) + " at revision " + std::to_string(saved->revision) +
+                 ") as map " + std::to_string(map_id_);
+    } else {
+      restored = "checkpoint " + options_.checkpoint + " not continued: " +
+                 (!saved          ? saved.error()
+                  : !saved->start ? std::string("it does not say where the flight started")
+                                  : std::string("its voxel size is not the mapper's"));
+    }
+  }
+  if (!restored_utime_ && !options_.load_map.empty()) {
     auto saved = loadMap(options_.load_map);
     if (!saved) throw std::runtime_error(saved.error());
     mapper_.restore(*saved);
@@ -41,6 +71,46 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperNodeOptions& options, int64_t 
       1000);
   subscribe<map_request_t>(
       "MAP_REQUEST", [this](const map_request_t& msg, const MessageInfo&) { onRequest(msg); });
+  if (!restored.empty()) {
+    std::fprintf(stderr, "[mapper] %s\n", restored.c_str());
+    publishStatus(mapper_.utime(), mapper_status_t::RESULT_RESTORED, restored);
+  }
+}
+
+bool MapperNode::dropStaleCheckpoint(int64_t utime) {
+  if (!restored_utime_ || utime < 0 || utime > kMaxUtime) return false;  // (refused later)
+  const int64_t checkpoint = *restored_utime_;
+  restored_utime_.reset();
+  if (utime >= checkpoint && utime - checkpoint <= secondsToUtime(options_.checkpoint_max_age)) {
+    return false;
+  }
+  // Another flight's map: start empty, as a mapper without the checkpoint would have.
+  mapper_ = Mapper(options_.mapper, now_ms_);
+  const std::string reason = "checkpoint dropped: the first message (" + std::to_string(utime) +
+                             " us) is not within checkpoint_max_age after it (" +
+                             std::to_string(checkpoint) +
+                             " us), so it is another flight's; starting an empty map";
+  std::fprintf(stderr, "[mapper] %s\n", reason.c_str());
+  publishStatus(utime, mapper_status_t::RESULT_RESTORED, reason);
+  return true;
+}
+
+void MapperNode::checkpointIfDue(int64_t utime) {
+  if (options_.checkpoint.empty() ||
+      (checkpoint_utime_ &&
+       utime - *checkpoint_utime_ < secondsToUtime(options_.checkpoint_period))) {
+    return;
+  }
+  checkpoint_utime_ = utime;
+  try {
+    saveMap(options_.checkpoint, mapper_.saved(map_id_));
+  } catch (const std::runtime_error& e) {
+    std::fprintf(stderr, "[mapper] checkpoint not written: %s\n", e.what());
+  }
+}
+
+void MapperNode::removeCheckpoint() const {
+  if (!options_.checkpoint.empty()) std::remove(options_.checkpoint.c_str());
 }
 
 void MapperNode::onDepth(const depth_image_t& msg) {
@@ -50,6 +120,7 @@ void MapperNode::onDepth(const depth_image_t& msg) {
     publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED, "bad depth frame: " + frame.error());
     return;
   }
+  dropStaleCheckpoint(frame->utime);
   const FrameOutcome outcome = mapper_.addFrame(std::move(*frame));
   if (outcome.status == FrameOutcome::Status::kRefused) {
     publishStatus(outcome.utime, mapper_status_t::RESULT_REFUSED, outcome.reason);
@@ -72,6 +143,7 @@ void MapperNode::onState(const odometry_t& msg) {
     publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED, "pose refused: " + pose.error());
     return;
   }
+  dropStaleCheckpoint(msg.utime);
   const Timeline::Result added = mapper_.addPose(msg.utime, *pose);
   if (!added.accepted()) {
     publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED, added.reason);
@@ -114,6 +186,7 @@ std::vector<int64_t> MapperNode::integrateReady() {
     timing.num_stages = 2;
     publish("MODULE_TIMING", timing);
     publishStatus(outcome.utime, mapper_status_t::RESULT_INTEGRATED, "");
+    checkpointIfDue(update->utime);
     ++update;
   }
   return handled;
@@ -166,8 +239,7 @@ void MapperNode::publishStatus(int64_t utime, int8_t result, const std::string& 
 
 std::string MapperNode::saveIfConfigured() const {
   if (options_.save_map.empty()) return "";
-  saveMap(options_.save_map,
-          SavedMap{mapper_.tsdf(), mapper_.esdf(), map_id_, mapper_.revision(), mapper_.utime()});
+  saveMap(options_.save_map, mapper_.saved(map_id_));
   return options_.save_map;
 }
 

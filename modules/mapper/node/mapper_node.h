@@ -30,6 +30,14 @@ struct MapperNodeOptions {
   std::string load_map;
   /// Where the map is saved when the node stops ("": not saved).
   std::string save_map;
+  /// Crash recovery ("": off): the map is saved here (atomically) every checkpoint_period of
+  /// message time; a mapper that starts and finds the file continues it (the same flight, a new
+  /// map id so that every mirror takes a snapshot), unless its first pose or frame is earlier than
+  /// the checkpoint or more than checkpoint_max_age after it (another flight). A clean stop
+  /// removes it, so only a crash leaves one behind.
+  std::string checkpoint;
+  double checkpoint_period = 1.0;    // [s] of message time
+  double checkpoint_max_age = 30.0;  // [s] of message time
 
   void declare(Params& p);
 };
@@ -49,6 +57,8 @@ class MapperNode : public Node {
   /// Writes the map to options' save_map, if set; returns the path written or "". Throws
   /// std::runtime_error when the file cannot be written.
   std::string saveIfConfigured() const;
+  /// The clean stop: removes the checkpoint, if any (see MapperNodeOptions::checkpoint).
+  void removeCheckpoint() const;
 
  private:
   void onDepth(const depth_image_t& msg);
@@ -57,6 +67,10 @@ class MapperNode : public Node {
   // Integrates what became ready and publishes the results; the utimes of the frames dealt with.
   std::vector<int64_t> integrateReady();
   void publishStatus(int64_t utime, int8_t result, const std::string& reason);
+  // With a checkpoint continued: drops it when the first pose or frame (at utime) belongs to
+  // another flight. Returns whether it did.
+  bool dropStaleCheckpoint(int64_t utime);
+  void checkpointIfDue(int64_t utime);
   template <class Voxel>
   void publishLayer(const std::string& channel, const Layer<Voxel>& layer, int64_t utime,
                     int64_t revision, bool full_snapshot, const std::vector<BlockIndex>& changed,
@@ -64,7 +78,10 @@ class MapperNode : public Node {
 
   MapperNodeOptions options_;
   int64_t map_id_;
+  std::function<double()> now_ms_;
   Mapper mapper_;
+  std::optional<int64_t> restored_utime_;    // the checkpoint continued, until the first message
+  std::optional<int64_t> checkpoint_utime_;  // the last checkpoint written
   std::vector<double> tsdf_ms_, esdf_ms_;
   int64_t undecodable_frames_ = 0;
 };

@@ -1,5 +1,12 @@
 #include "thicket/mapper/map_io.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -57,13 +64,33 @@ std::string applyRecord(MapMirror<Voxel>& mirror, const map_update_t& msg) {
 }  // namespace
 
 void saveMap(const std::string& path, const SavedMap& map) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw std::runtime_error("cannot write " + path);
-  out << kMagic << ' ' << kMapFileVersion << '\n';
-  writeLayer(out, map.tsdf, map);
-  writeLayer(out, map.esdf, map);
-  out.close();
-  if (!out) throw std::runtime_error("writing " + path + " failed");
+  const std::string temporary = path + ".part";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error("cannot write " + temporary);
+    out << kMagic << ' ' << kMapFileVersion << " start";
+    if (map.start) {
+      char text[96];
+      std::snprintf(text, sizeof(text), " %.17g %.17g %.17g", map.start->x(), map.start->y(),
+                    map.start->z());
+      out << text;
+    } else {
+      out << " none";
+    }
+    out << '\n';
+    writeLayer(out, map.tsdf, map);
+    writeLayer(out, map.esdf, map);
+    out.close();
+    if (!out) throw std::runtime_error("writing " + temporary + " failed");
+  }
+  const int fd = ::open(temporary.c_str(), O_RDONLY);
+  const bool synced = fd >= 0 && ::fsync(fd) == 0;
+  if (fd >= 0) ::close(fd);
+  if (!synced || std::rename(temporary.c_str(), path.c_str()) != 0) {
+    const std::string error = std::strerror(errno);
+    std::remove(temporary.c_str());
+    throw std::runtime_error("saving " + path + " failed: " + error);
+  }
 }
 
 Expected<SavedMap> loadMap(const std::string& path) {
@@ -77,9 +104,24 @@ Expected<SavedMap> loadMap(const std::string& path) {
   if (!(fields >> magic >> version) || magic != kMagic) {
     return unexpected(path + " is not a thicket map");
   }
-  if (version != kMapFileVersion) {
+  if (version != 1 && version != kMapFileVersion) {
     return unexpected(path + " is a thicket map of version " + std::to_string(version) +
-                      "; this build reads version " + std::to_string(kMapFileVersion));
+                      "; this build reads versions 1 to " + std::to_string(kMapFileVersion));
+  }
+  std::optional<Eigen::Vector3d> start;
+  if (version >= 2) {
+    std::string word, x;
+    if (!(fields >> word >> x) || word != "start") return unexpected(path + ": bad header");
+    if (x != "none") {
+      double y = 0, z = 0;
+      char* end = nullptr;
+      const double px = std::strtod(x.c_str(), &end);
+      if (*end != '\0' || !(fields >> y >> z) || !std::isfinite(px) || !std::isfinite(y) ||
+          !std::isfinite(z)) {
+        return unexpected(path + ": bad start position in the header");
+      }
+      start = Eigen::Vector3d(px, y, z);
+    }
   }
   const std::vector<uint8_t> body((std::istreambuf_iterator<char>(in)),
                                   std::istreambuf_iterator<char>());
@@ -117,6 +159,7 @@ Expected<SavedMap> loadMap(const std::string& path) {
   map.map_id = tsdf.mapId();
   map.revision = tsdf.revision();
   map.utime = tsdf.utime();
+  map.start = start;
   return map;
 }
 

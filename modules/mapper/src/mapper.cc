@@ -36,9 +36,9 @@ Mapper::Mapper(MapperOptions options, std::function<double()> now_ms)
 
 Timeline::Result Mapper::addPose(int64_t utime, const Pose& world_T_body) {
   Timeline::Result result = poses_.add(utime, world_T_body);
-  if (result.accepted() && !has_initial_position_) {
+  if (result.accepted() && !start_) {
     esdf_integrator_.setInitialPosition(world_T_body.position);
-    has_initial_position_ = true;
+    start_ = world_T_body.position;
   }
   return result;
 }
@@ -72,7 +72,7 @@ FrameOutcome Mapper::addFrame(DepthImage frame) {
   return {FrameOutcome::Status::kPending, utime, "waiting for the pose at its time"};
 }
 
-void Mapper::restore(const SavedMap& map) {
+void Mapper::restore(const SavedMap& map, bool same_flight) {
   if (frames_.last()) {
     throw std::logic_error("Mapper::restore: frames were already taken");
   }
@@ -80,6 +80,13 @@ void Mapper::restore(const SavedMap& map) {
     throw std::invalid_argument(
         "Mapper::restore: the map has " + std::to_string(map.tsdf.voxelSize()) +
         " m voxels, the mapper is configured for " + std::to_string(options_.voxel_size) + " m");
+  }
+  if (same_flight && !map.start) {
+    throw std::invalid_argument("Mapper::restore: the map does not say where its flight started");
+  }
+  if (same_flight) {
+    esdf_integrator_.setInitialPosition(*map.start);
+    start_ = map.start;
   }
   tsdf_ = map.tsdf;
   esdf_ = map.esdf;  // served until the first frame; its update recomputes from the TSDF

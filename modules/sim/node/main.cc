@@ -199,18 +199,31 @@ int runCommand(int argc, char** argv) {
 
   return thicket::runNode("thicket-sim", args->lcm_url, [&](lcm::LCM& lcm, thicket::Loop& loop) {
     thicket::sim::SimNode node(lcm, options, std::move(*world));
+    // Liveness only (wall time decides nothing a trial records): a frame the planner does not
+    // close within lockstep_step_on is stepped past, and a planner that closes none for
+    // lockstep_timeout ends the mission instead of hanging it.
     int64_t waited_since = thicket::steadyClockMicros();
+    int64_t answered_at = waited_since;
     std::optional<int64_t> waited_for;
+    int answered = 0;
     if (options.lockstep) {
-      // Liveness only: a planner that stopped answering ends the mission instead of hanging it.
       loop.addTimer(100'000, [&] {
+        const int64_t now = thicket::steadyClockMicros();
+        if (const int n = node.vehicle().cycle() - node.stepsOn(); n != answered) {
+          answered = n;
+          answered_at = now;
+        }
         if (node.waitingFor() != waited_for) {
           waited_for = node.waitingFor();
-          waited_since = thicket::steadyClockMicros();
-        } else if (waited_for && thicket::steadyClockMicros() - waited_since >
-                                     static_cast<int64_t>(options.lockstep_timeout * 1e6)) {
+          waited_since = now;
+        }
+        const double waited_s = static_cast<double>(now - waited_since) * 1e-6;
+        if (static_cast<double>(now - answered_at) * 1e-6 > options.lockstep_timeout) {
           node.abort("no final planner status for " + std::to_string(options.lockstep_timeout) +
                      " s");
+        } else if (waited_for && options.lockstep_step_on > 0 &&
+                   waited_s > options.lockstep_step_on) {
+          node.stepOn(waited_s);
         }
         if (node.finished()) loop.stop();
       });

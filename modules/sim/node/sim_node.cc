@@ -24,8 +24,13 @@ void SimOptions::declare(Params& p) {
   p("lockstep", lockstep, "wait for the planner's final status of each frame before stepping");
   p("rate", rate, "cycles per wall-clock second without lockstep [Hz]", Range::positive());
   p("lockstep_timeout", lockstep_timeout,
-    "wall-clock seconds to wait for the planner in lockstep before aborting [s]",
+    "wall-clock seconds without any final planner status in lockstep before aborting [s]",
     Range::positive());
+  p("lockstep_step_on", lockstep_step_on,
+    "wall-clock seconds a frame waits for its final planner status in lockstep before the "
+    "simulator steps on without it, as in real time (a restarted or starved module gets a new "
+    "frame and estimate); 0: never [s]",
+    Range::atLeast(0));
   p("odometry_rate", odometry_rate, "odometry messages per simulated second [Hz]",
     Range::between(0.1, 1000));
   p.group("vehicle", vehicle, "the simulated vehicle and mission limits");
@@ -77,7 +82,7 @@ SimNode::SimNode(lcm::LCM& lcm, const SimOptions& options, World world)
       [this](const polynomial_trajectory_t& msg, const MessageInfo&) { onTrajectory(msg); });
   subscribe<planner_status_t>(
       "PLANNER_STATUS",
-      [this](const planner_status_t& msg, const MessageInfo&) { onPlannerStatus(msg); });
+      [this](const planner_status_t& msg, const MessageInfo&) { onPlannerStatus(msg); }, 1000);
 }
 
 void SimNode::buildCamera() {
@@ -91,6 +96,17 @@ void SimNode::buildCamera() {
 void SimNode::start() {
   publishWorld();
   // The simulated operator: the world's goal is the mission.
+  publishMissionGoal();
+  publishEvent(sim_event_t::TYPE_TRIAL_START,
+               "scenario " + world_.scenario + ", density " + std::to_string(world_.density) +
+                   ", seed " + std::to_string(world_.seed) + ", " +
+                   std::to_string(world_.cylinders.size()) + " cylinders");
+  publishOdometry(vehicle_.state());
+  updateDynamicObstacle();
+  publishFrame();
+}
+
+void SimNode::publishMissionGoal() {
   goal_t goal{};
   goal.utime = vehicle_.utime();
   goal.goal_id = 1;
@@ -102,13 +118,7 @@ void SimNode::start() {
   goal.yaws = {0.0};
   goal.num_waypoints = 1;
   publish("MISSION_GOAL", goal);
-  publishEvent(sim_event_t::TYPE_TRIAL_START,
-               "scenario " + world_.scenario + ", density " + std::to_string(world_.density) +
-                   ", seed " + std::to_string(world_.seed) + ", " +
-                   std::to_string(world_.cylinders.size()) + " cylinders");
-  publishOdometry(vehicle_.state());
-  updateDynamicObstacle();
-  publishFrame();
+  goal_sent_for_frame_ = frame_;
 }
 
 void SimNode::publishWorld() {
@@ -229,12 +239,30 @@ void SimNode::onTrajectory(const polynomial_trajectory_t& msg) {
 }
 
 void SimNode::onPlannerStatus(const planner_status_t& msg) {
+  // A planner without a goal (restarted, or started after the goal went out) is sent the mission
+  // again, once per frame: the operator's goal is latched here, where it was given.
+  if (!finished_ && msg.is_final && msg.goal_id < 0 &&
+      msg.state != planner_status_t::STATE_GOAL_REACHED && goal_sent_for_frame_ != frame_) {
+    publishEvent(sim_event_t::TYPE_INFO, "the planner has no goal: the mission goal sent again");
+    publishMissionGoal();
+  }
   // The planner closes the frame it planned for with a final status planned from the state at
   // (or after) the frame's time; earlier or non-final statuses do not step the simulation.
   if (!options_.lockstep || finished_ || !waiting_for_ || !msg.is_final ||
       msg.utime < *waiting_for_) {
     return;
   }
+  advance();
+}
+
+void SimNode::stepOn(double waited_s) {
+  if (finished_ || !waiting_for_) return;
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "no final planner status for frame %lld within %.1f s: stepping on without it",
+                static_cast<long long>(*waiting_for_), waited_s);
+  publishEvent(sim_event_t::TYPE_INFO, text);
+  ++steps_on_;
   advance();
 }
 

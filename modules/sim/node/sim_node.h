@@ -29,7 +29,8 @@ struct SimOptions {
   std::string sensor = "depth";
   bool lockstep = false;
   double rate = 1.0;               // cycles per wall-clock second without lockstep
-  double lockstep_timeout = 30.0;  // wall-clock seconds to wait for the planner before aborting
+  double lockstep_timeout = 30.0;  // wall-clock seconds without any final status: abort
+  double lockstep_step_on = 3.0;   // wall-clock seconds a frame waits before stepping on; 0: never
   double odometry_rate = 20.0;     // odometry messages per simulated second
   VehicleOptions vehicle;
   DepthCameraOptions depth_camera;
@@ -54,6 +55,13 @@ class SimNode : public Node {
   void advance();
   /// Ends the mission now (e.g. the planner stopped answering), with the reason.
   void abort(const std::string& reason);
+  /// In lockstep, steps on without the final status of the frame waited on (it waited `waited_s`
+  /// of wall time), as the real-time simulator would: the vehicle flies what it committed (and
+  /// hovers at its end), and a new estimate and frame go out, which a restarted module, or one
+  /// whose messages were lost, takes up. Said in a TYPE_INFO SIM_EVENT.
+  void stepOn(double waited_s);
+  /// How many frames stepOn stepped past.
+  int stepsOn() const { return steps_on_; }
 
   bool finished() const { return finished_; }
   /// How the mission ended ("goal reached", "aborted: ..."), empty while it runs.
@@ -77,6 +85,8 @@ class SimNode : public Node {
   // (Re)builds the renderer of options_.sensor for world_.
   void buildCamera();
   void publishWorld();
+  // The operator's mission: the world's goal on MISSION_GOAL (goal id 1).
+  void publishMissionGoal();
   void publishFrame();
   // Adds the dynamic obstacle when it is due and can be placed (see dynamicObstacle()).
   void updateDynamicObstacle();
@@ -99,6 +109,8 @@ class SimNode : public Node {
   int64_t odometry_sequence_ = 0;
   int64_t frame_ = 0;
   std::optional<int64_t> waiting_for_;
+  int64_t goal_sent_for_frame_ = -1;  // the frame_ at which MISSION_GOAL was last sent
+  int steps_on_ = 0;
   bool finished_ = false;
   std::string end_reason_;
 };

@@ -2,6 +2,7 @@
 // exported mesh lies on the surface and faces the free side; the cloud holds the occupied voxels.
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <random>
 
@@ -49,6 +50,7 @@ SavedMap sampleMap() {
   map.map_id = 77;
   map.revision = 12;
   map.utime = 123456;
+  map.start = Eigen::Vector3d(0.1 / 3, -2.5, 1.75);
   return map;
 }
 
@@ -63,6 +65,15 @@ TEST(MapFile, SavesAndLoadsBothLayersBitForBit) {
   EXPECT_EQ(loaded->map_id, 77);
   EXPECT_EQ(loaded->revision, 12);
   EXPECT_EQ(loaded->utime, 123456);
+  ASSERT_TRUE(loaded->start.has_value());
+  EXPECT_EQ(*loaded->start, *map.start);                  // to the last bit
+  EXPECT_FALSE(std::filesystem::exists(path + ".part"));  // written beside it, then renamed
+  SavedMap unstarted = map;
+  unstarted.start.reset();
+  saveMap(path, unstarted);
+  loaded = loadMap(path);
+  ASSERT_TRUE(loaded) << loaded.error();
+  EXPECT_FALSE(loaded->start.has_value());
 }
 
 TEST(MapFile, RefusesWhatItCannotRead) {
@@ -82,8 +93,17 @@ TEST(MapFile, RefusesWhatItCannotRead) {
   EXPECT_NE(refusal(tempPath("missing.map")).find("cannot read"), std::string::npos);
   EXPECT_NE(refusal(write("text.map", "hello\n")).find("not a thicket map"), std::string::npos);
   std::string newer = bytes;
-  newer.replace(0, newer.find('\n'), "THICKET-MAP 2");
-  EXPECT_NE(refusal(write("newer.map", newer)).find("version 2"), std::string::npos);
+  newer.replace(0, newer.find('\n'), "THICKET-MAP 3");
+  EXPECT_NE(refusal(write("newer.map", newer)).find("version 3"), std::string::npos);
+  std::string bad_start = bytes;
+  bad_start.replace(0, bad_start.find('\n'), "THICKET-MAP 2 start 1 nan 2");
+  EXPECT_NE(refusal(write("bad_start.map", bad_start)).find("bad start"), std::string::npos);
+  // Version 1 (before the start position) still reads, without a start.
+  std::string old = bytes;
+  old.replace(0, old.find('\n'), "THICKET-MAP 1");
+  const auto v1 = loadMap(write("v1.map", old));
+  ASSERT_TRUE(v1.ok()) << v1.error();
+  EXPECT_FALSE(v1->start.has_value());
   EXPECT_NE(refusal(write("truncated.map", bytes.substr(0, bytes.size() - 100))).find("truncated"),
             std::string::npos);
   std::string corrupt = bytes;

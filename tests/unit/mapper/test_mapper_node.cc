@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 
 #include <gtest/gtest.h>
 
@@ -312,7 +313,7 @@ TEST_F(MapperNodeTest, SavedMapsAreContinuedByTheNextRun) {
     EXPECT_EQ(empty->revision, 0);
     EXPECT_EQ(empty->tsdf.numBlocks(), 0u);
   }
-  saveMap(path, SavedMap{mapper.mapper().tsdf(), mapper.mapper().esdf(), 42, 3, 2'000'000});
+  saveMap(path, SavedMap{mapper.mapper().tsdf(), mapper.mapper().esdf(), 42, 3, 2'000'000, {}});
 
   MapperNodeOptions loading = nodeOptions();
   loading.map_id = 43;
@@ -361,6 +362,94 @@ TEST_F(MapperNodeTest, SavedMapsAreContinuedByTheNextRun) {
   MapperNodeOptions coarser = loading;
   coarser.mapper.voxel_size = 0.4;
   EXPECT_NE(refusal(coarser).find("voxels"), std::string::npos) << refusal(coarser);
+  std::remove(path.c_str());
+}
+
+// Crash recovery: a mapper with a checkpoint saves its map every checkpoint_period of message
+// time; one started after a crash (the file is still there) continues that flight's map under a
+// new map id, keeps the flight's start (no clear sphere opens where the vehicle now is), and its
+// mirrors catch up by a snapshot. A checkpoint of another flight is dropped at the first
+// message; a clean stop removes the file.
+TEST(MapperNode, ARestartedMapperContinuesItsCheckpoint) {
+  const std::string path = ::testing::TempDir() + "/mapper_node.checkpoint";
+  std::remove(path.c_str());
+  MapperNodeOptions options = nodeOptions();
+  options.checkpoint = path;
+  options.checkpoint_period = 1.0;
+  const sim::DepthRenderer renderer(smallForest(), smallCamera());
+  TsdfLayer before(1.0);
+  {
+    lcm::LCM lcm("memq://");
+    Loop loop(lcm);
+    MapperNode mapper(lcm, options, 42);
+    Node sensors("sensors", lcm);
+    for (int k = 0; k < 4; ++k) {  // 1.0, 1.4, 1.8, 2.2 s: checkpoints at 1.0 and 2.2 s
+      const int64_t t = 1'000'000 + k * 400'000;
+      sensors.publish("STATE_ESTIMATE", poseMsg(t, bodyAt(k * 0.4)));
+      sensors.publish("CAMERA_DEPTH", frameAt(renderer, k * 0.4, t));
+      loop.drain();
+      const auto saved = loadMap(path);
+      ASSERT_TRUE(saved.ok()) << saved.error();
+      EXPECT_EQ(saved->revision, k == 3 ? 4 : 1) << k;
+    }
+    before = mapper.mapper().tsdf();
+    EXPECT_FALSE(std::filesystem::exists(path + ".part"));
+  }  // a crash: the node is gone without removeCheckpoint()
+
+  const auto saved = loadMap(path);
+  ASSERT_TRUE(saved.ok()) << saved.error();
+  ASSERT_TRUE(saved->start.has_value());
+  EXPECT_EQ(*saved->start, bodyAt(0).position);
+  EXPECT_EQ(saved->utime, 2'200'000);
+
+  lcm::LCM lcm("memq://");
+  Loop loop(lcm);
+  Observer observer(lcm);
+  MapperNode respawned(lcm, options, 42);
+  Node sensors("sensors", lcm);
+  loop.drain();
+  EXPECT_EQ(respawned.mapId(), 43);
+  EXPECT_EQ(respawned.mapper().revision(), 4);
+  EXPECT_TRUE(identicalLayers(respawned.mapper().tsdf(), before));
+  ASSERT_TRUE(respawned.mapper().start().has_value());
+  EXPECT_EQ(*respawned.mapper().start(), bodyAt(0).position);
+  const mapper_status_t* restored = observer.last(mapper_status_t::RESULT_RESTORED);
+  ASSERT_NE(restored, nullptr);
+  EXPECT_NE(restored->reason.find("continued the checkpoint"), std::string::npos)
+      << restored->reason;
+
+  // The flight goes on: revision 5 on top of the continued map, and a mirror that joins now
+  // gets all of it through one snapshot.
+  sensors.publish("STATE_ESTIMATE", poseMsg(2'600'000, bodyAt(1.6)));
+  sensors.publish("CAMERA_DEPTH", frameAt(renderer, 1.6, 2'600'000));
+  loop.drain();
+  ASSERT_EQ(respawned.mapper().revision(), 5);
+  ASSERT_NE(observer.tsdf.layer(), nullptr);
+  EXPECT_EQ(observer.tsdf.mapId(), 43);
+  EXPECT_TRUE(identicalLayers(*observer.tsdf.layer(), respawned.mapper().tsdf()));
+  for (const BlockIndex& b : before.blockIndices()) {
+    EXPECT_NE(respawned.mapper().tsdf().block(b), nullptr);
+  }
+  respawned.removeCheckpoint();
+  EXPECT_FALSE(std::filesystem::exists(path));
+
+  // Another flight (its clock starts over) does not continue a checkpoint left behind.
+  saveMap(path, *saved);
+  {
+    lcm::LCM lcm3("memq://");
+    Loop loop3(lcm3);
+    Observer observer3(lcm3);
+    MapperNode next(lcm3, options, 42);
+    Node sensors3("sensors", lcm3);
+    EXPECT_EQ(next.mapper().revision(), 4);
+    sensors3.publish("STATE_ESTIMATE", poseMsg(100'000, bodyAt(0)));
+    sensors3.publish("CAMERA_DEPTH", frameAt(renderer, 0, 100'000));
+    loop3.drain();
+    EXPECT_EQ(next.mapper().revision(), 1);
+    const mapper_status_t* dropped = observer3.last(mapper_status_t::RESULT_RESTORED);
+    ASSERT_NE(dropped, nullptr);
+    EXPECT_NE(dropped->reason.find("checkpoint dropped"), std::string::npos) << dropped->reason;
+  }
   std::remove(path.c_str());
 }
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <thicket/depth_image_t.hpp>
+#include <thicket/goal_t.hpp>
 #include <thicket/odometry_t.hpp>
 #include <thicket/sim_world_t.hpp>
 
@@ -158,6 +159,74 @@ TEST(SimNode, StepsOnlyOnAFinalStatusForTheAwaitedFrame) {
   loop.drain();
   EXPECT_EQ(sim.vehicle().cycle(), 1);
   EXPECT_EQ(sim.waitingFor(), std::optional<int64_t>(1'000'000));
+}
+
+// What a restarted planner needs: stepping on without a final status flies what was committed
+// and sends a new estimate and frame (said in a SIM_EVENT); a planner that reports it has no goal
+// gets the mission goal again, once per frame.
+TEST(SimNode, StepsOnWithoutAnAnswerAndResendsTheGoalToAPlannerWithoutOne) {
+  lcm::LCM lcm("memq://");
+  Loop loop(lcm);
+  const World world = corridor();
+  SimNode sim(lcm, lockstepOptions(), world);
+  Node planner("planner", lcm);
+  std::vector<std::string> heard;
+  std::vector<goal_t> goals;
+  std::vector<sim_event_t> events;
+  planner.subscribe<goal_t>("MISSION_GOAL", [&](const goal_t& goal, const MessageInfo&) {
+    goals.push_back(goal);
+    heard.push_back("goal");
+  });
+  planner.subscribe<depth_image_t>(
+      "CAMERA_DEPTH", [&](const depth_image_t&, const MessageInfo&) { heard.push_back("frame"); });
+  planner.subscribe<odometry_t>(
+      "VIO_ODOMETRY", [&](const odometry_t&, const MessageInfo&) { heard.push_back("odometry"); });
+  planner.subscribe<sim_event_t>(
+      "SIM_EVENT", [&](const sim_event_t& event, const MessageInfo&) { events.push_back(event); });
+  sim.start();
+  loop.drain();
+  planner.publish("PLANNER_TRAJECTORY", restToRest(0, world.start, world.goal, 15));
+  loop.drain();
+  ASSERT_EQ(goals.size(), 1u);
+  heard.clear();
+
+  sim.stepOn(3.2);  // the planner was gone
+  loop.drain();
+  EXPECT_EQ(sim.stepsOn(), 1);
+  EXPECT_EQ(sim.vehicle().cycle(), 1);
+  EXPECT_EQ(sim.waitingFor(), std::optional<int64_t>(1'000'000));
+  EXPECT_GT(sim.vehicle().state().position.x(), world.start.x());  // it flew what it committed
+  ASSERT_FALSE(heard.empty());
+  EXPECT_EQ(heard.front(), "odometry");
+  EXPECT_EQ(heard.back(), "frame");
+  ASSERT_FALSE(events.empty());
+  EXPECT_NE(events.back().message.find("stepping on"), std::string::npos) << events.back().message;
+
+  // The respawned planner has no goal: the goal goes out again, once for this frame.
+  planner_status_t status{};
+  status.utime = 1'000'000;
+  status.is_final = false;
+  status.goal_id = -1;
+  status.state = planner_status_t::STATE_HOLDING;
+  planner.publish("PLANNER_STATUS", status);
+  loop.drain();
+  EXPECT_EQ(goals.size(), 1u);  // not a final status
+  status.is_final = true;
+  status.utime = 500'000;  // not the awaited frame: the goal, but no step
+  planner.publish("PLANNER_STATUS", status);
+  planner.publish("PLANNER_STATUS", status);
+  loop.drain();
+  ASSERT_EQ(goals.size(), 2u);
+  EXPECT_EQ(goals[1].goal_id, goals[0].goal_id);
+  EXPECT_EQ(goals[1].waypoints, goals[0].waypoints);
+  EXPECT_EQ(sim.vehicle().cycle(), 1);
+  status.utime = 1'000'000;
+  status.goal_id = 1;
+  planner.publish("PLANNER_STATUS", status);
+  loop.drain();
+  EXPECT_EQ(sim.vehicle().cycle(), 2);  // an answer steps as before
+  EXPECT_EQ(sim.stepsOn(), 1);
+  EXPECT_EQ(goals.size(), 2u);
 }
 
 TEST(SimNode, RefusedTrajectoriesAreReportedAndTheVehicleHolds) {

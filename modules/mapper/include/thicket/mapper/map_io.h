@@ -4,15 +4,18 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
+
+#include <Eigen/Core>
 
 #include "thicket/common/expected.h"
 #include "thicket/common/voxel_layer.h"
 
 namespace thicket::mapper {
 
-/// The version written by saveMap; loadMap reads this one only.
-constexpr int kMapFileVersion = 1;
+/// The version written by saveMap; loadMap reads it and version 1 (which had no start position).
+constexpr int kMapFileVersion = 2;
 
 struct SavedMap {
   TsdfLayer tsdf{1.0};
@@ -20,11 +23,16 @@ struct SavedMap {
   int64_t map_id = 0;
   int64_t revision = 0;
   int64_t utime = 0;  ///< the newest integrated frame [µs]
+  /// Where the flight that built the map started: the centre of the ESDF's clear sphere (none
+  /// before the first pose, and in version 1 files).
+  std::optional<Eigen::Vector3d> start;
 };
 
-/// Writes "THICKET-MAP <version>\n", then both layers as full-snapshot map_update_t messages,
-/// each preceded by its length (uint32) and a 64-bit FNV-1a checksum of it (little-endian): the
-/// wire format's validation applies to files too. Throws std::runtime_error when the file cannot be
+/// Writes "THICKET-MAP <version> start <x> <y> <z>\n" ("start none" without one), then both layers
+/// as full-snapshot map_update_t messages, each preceded by its length (uint32) and a 64-bit FNV-1a
+/// checksum of it (little-endian): the wire format's validation applies to files too. The file is
+/// replaced atomically: written beside it, synced, then renamed over it, so that a crash leaves the
+/// old file or the new one, never a torn one. Throws std::runtime_error when the file cannot be
 /// written.
 void saveMap(const std::string& path, const SavedMap& map);
 

@@ -82,10 +82,13 @@ class Mapper {
   std::vector<FrameOutcome> integrateReady(std::vector<MapRevisionUpdate>& updates);
 
   /// Continues a saved map: adopts its layers, revision and time, before any frame was taken.
-  /// The ESDF is recomputed from the TSDF with the first integrated frame (the unknown-space
-  /// policy follows this flight's poses). Throws std::logic_error once a frame was taken,
-  /// std::invalid_argument when the map's voxel size is not options().voxel_size.
-  void restore(const SavedMap& map);
+  /// The ESDF is recomputed from the TSDF with the first integrated frame. For a new flight the
+  /// unknown-space policy follows this flight's poses (its first pose is the start); for the same
+  /// flight (a checkpoint after a crash) it keeps the map's start, so that no clear sphere opens
+  /// unknown space around wherever the vehicle is when the mapper comes back. Throws
+  /// std::logic_error once a frame was taken, std::invalid_argument when the map's voxel size is
+  /// not options().voxel_size or a same-flight map has no start.
+  void restore(const SavedMap& map, bool same_flight = false);
 
   const TsdfLayer& tsdf() const { return tsdf_; }
   const EsdfLayer& esdf() const { return esdf_; }
@@ -94,6 +97,11 @@ class Mapper {
   int64_t revision() const { return revision_; }
   /// Time of the newest integrated frame [µs], 0 before any.
   int64_t utime() const { return utime_; }
+  /// The start of the flight (the first accepted pose, or a restored map's): the centre of the
+  /// ESDF's clear sphere.
+  const std::optional<Eigen::Vector3d>& start() const { return start_; }
+  /// The map as saveMap writes it.
+  SavedMap saved(int64_t map_id) const { return {tsdf_, esdf_, map_id, revision_, utime_, start_}; }
   size_t pendingFrames() const { return pending_.size(); }
   int64_t framesRefused() const { return frames_refused_; }
 
@@ -107,7 +115,7 @@ class Mapper {
   TsdfLayer tsdf_;
   EsdfLayer esdf_;
   PoseHistory poses_;
-  bool has_initial_position_ = false;
+  std::optional<Eigen::Vector3d> start_;
   std::deque<DepthImage> pending_;     // utime order
   std::vector<FrameOutcome> dropped_;  // pending frames pushed out; reported by integrateReady
   Timeline frames_{"frame"};           // stamps of the frames accepted (pending or integrated)

@@ -1,0 +1,194 @@
+// Killing modules mid-mission under the sheriff: config/sim.pmd's "fly" (its files in a temporary
+// folder, so that nothing is shared with a demo running beside it) in a private network namespace,
+// once in lockstep and once in real time. While the vehicle flies, the test SIGKILLs the mapper,
+// the VIO bridge, the planner and the explorer, one after the other, each once; the deputy
+// respawns them. The mission must still end at the goal without a collision, and the map must be
+// intact: every block the mapper had before it was killed is in the map it saves at the end
+// (the respawned mapper continues its checkpoint).
+#include <sched.h>
+#include <signal.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+#include <thicket/mapper_status_t.hpp>
+#include <thicket/planner_status_t.hpp>
+
+#include "procman_test_support.h"
+#include "thicket/mapper/map_io.h"
+
+namespace {
+
+using thicket::procman::test_support::ChildProcess;
+using thicket::procman::test_support::DescendantReaper;
+using thicket::procman::test_support::readFile;
+
+// A large receive buffer, as scripts/demo sets: a respawned mirror's snapshot comes in a burst.
+const char* const kUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608";
+
+bool privateNetwork() {
+  return ::unshare(CLONE_NEWNET) == 0 &&
+         std::system(
+             "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo "
+             "> /dev/null 2>&1") == 0;
+}
+
+void replaceAll(std::string& text, const std::string& from, const std::string& to) {
+  for (size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
+    text.replace(at, from.size(), to);
+  }
+}
+
+// config/sim.pmd with its programs and parameter files made absolute, the parameter files copied
+// to `dir` (the mapper's checkpoint and saved map there too) and the log written there; in real
+// time the simulator steps at 4 cycles per second instead of waiting for the planner.
+std::string missionSheet(const std::string& dir, bool lockstep) {
+  namespace fs = std::filesystem;
+  for (const auto& entry : fs::directory_iterator(THICKET_SOURCE_DIR "/config/sim")) {
+    fs::copy_file(entry.path(), dir + "/" + entry.path().filename().string(),
+                  fs::copy_options::overwrite_existing);
+  }
+  std::string mapper = readFile(dir + "/mapper.yaml");
+  replaceAll(mapper, "checkpoint: logs/sim-mapper.checkpoint",
+             "checkpoint: " + dir + "/checkpoint");
+  std::ofstream(dir + "/mapper.yaml") << mapper << "save_map: " << dir << "/final.map\n";
+  std::ofstream(dir + "/sim.yaml") << "lockstep: false\nrate: 4\n";
+
+  std::string sheet = readFile(THICKET_SOURCE_DIR "/config/sim.pmd");
+  replaceAll(sheet, "\"build/", std::string("\"") + THICKET_BINARY_DIR + "/");
+  replaceAll(sheet, " config/sim/", " " + dir + "/");
+  replaceAll(sheet, "logs/sim.lcm", dir + "/mission.lcm");
+  if (!lockstep) replaceAll(sheet, "run --lockstep", "run --config " + dir + "/sim.yaml");
+  const std::string path = dir + "/sim.pmd";
+  std::ofstream(path) << sheet;
+  return path;
+}
+
+// The pid of this test's descendant whose command line names `program`, or -1.
+int findProgram(const std::string& program) {
+  for (const int pid : DescendantReaper::descendants()) {
+    std::string cmdline = readFile("/proc/" + std::to_string(pid) + "/cmdline");
+    replaceAll(cmdline, std::string(1, '\0'), " ");
+    if (cmdline.find("/" + program + " ") != std::string::npos) return pid;
+  }
+  return -1;
+}
+
+struct Heard {
+  int final_statuses = 0;
+  std::vector<std::string> restored;  // MAPPER_STATUS RESULT_RESTORED reasons
+};
+
+void killEachModuleMidMission(bool lockstep) {
+  const DescendantReaper reaper;
+  if (!privateNetwork()) GTEST_SKIP() << "no private network namespace here (needs root)";
+  ::setenv("LCM_DEFAULT_URL", kUrl, 1);
+  const std::string dir = ::testing::TempDir() + "/kill_modules_" + std::to_string(::getpid()) +
+                          (lockstep ? "_lockstep" : "_realtime");
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string sheet = missionSheet(dir, lockstep);
+
+  lcm::LCM lcm(kUrl);
+  ASSERT_TRUE(lcm.good());
+  Heard heard;
+  lcm.subscribeFunction(
+      "PLANNER_STATUS",
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string&, Heard* h) {
+        thicket::planner_status_t status;
+        if (status.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) > 0 &&
+            status.is_final) {
+          ++h->final_statuses;
+        }
+      },
+      &heard);
+  lcm.subscribeFunction(
+      "MAPPER_STATUS",
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string&, Heard* h) {
+        thicket::mapper_status_t status;
+        if (status.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) > 0 &&
+            status.result == thicket::mapper_status_t::RESULT_RESTORED) {
+          h->restored.push_back(status.reason);
+        }
+      },
+      &heard);
+
+  ChildProcess sheriff({THICKET_SHERIFF, "-l", "--exit-after-script", "--wait-timeout", "240",
+                        "--status-period", "600", sheet, "fly"});
+  // Each module is killed once the planner has closed a few more cycles since the last kill.
+  const std::vector<std::string> victims = {"thicket-mapper", "thicket-vio-bridge",
+                                            "thicket-local-planner", "thicket-explorer"};
+  std::vector<std::string> killed;
+  int next_at = 3;
+  const std::string checkpoint = dir + "/checkpoint";
+  while (!sheriff.exited() && killed.size() < victims.size()) {
+    lcm.handleTimeout(50);
+    sheriff.waitExit(0);
+    if (heard.final_statuses < next_at) continue;
+    const std::string& victim = victims[killed.size()];
+    if (victim == "thicket-mapper") {
+      if (!std::filesystem::exists(checkpoint)) continue;
+      std::filesystem::copy_file(checkpoint, dir + "/before.map");
+    }
+    const int pid = findProgram(victim);
+    ASSERT_GT(pid, 0) << victim << " is not running";
+    ASSERT_EQ(::kill(pid, SIGKILL), 0);
+    killed.push_back(victim + " (pid " + std::to_string(pid) + ")");
+    next_at = heard.final_statuses + 5;
+  }
+  EXPECT_EQ(killed.size(), victims.size()) << "the mission ended before every module was killed";
+  while (!sheriff.waitExit(0.05)) lcm.handleTimeout(50);
+  const std::string output = sheriff.output();
+  ASSERT_EQ(sheriff.exitCode(), 0) << output;
+
+  // Every module was killed once and came back; the simulator ended at the goal.
+  for (const char* name : {"mapper", "vio_bridge", "planner", "explorer"}) {
+    const std::regex kill(std::string("\\[") + name + "\\] pid [0-9]+ killed by signal 9");
+    const auto kills = std::distance(std::sregex_iterator(output.begin(), output.end(), kill),
+                                     std::sregex_iterator());
+    EXPECT_EQ(kills, 1) << name << "\n" << output;
+  }
+  EXPECT_NE(output.find("thicket-sim: goal reached"), std::string::npos) << output;
+
+  // The log says the same: goal reached, no collision (thicket-log mission exits 0 only then).
+  ChildProcess mission({THICKET_LOG, "mission", dir + "/mission.lcm.00"});
+  ASSERT_TRUE(mission.waitExit(60));
+  EXPECT_EQ(mission.exitCode(), 0) << mission.output();
+
+  // The respawned mapper continued its checkpoint, and nothing mapped before the kill is lost.
+  ASSERT_EQ(heard.restored.size(), 1u);
+  EXPECT_NE(heard.restored[0].find("continued the checkpoint"), std::string::npos)
+      << heard.restored[0];
+  const auto before = thicket::mapper::loadMap(dir + "/before.map");
+  const auto after = thicket::mapper::loadMap(dir + "/final.map");
+  ASSERT_TRUE(before.ok()) << before.error();
+  ASSERT_TRUE(after.ok()) << after.error();
+  EXPECT_GT(before->revision, 0);
+  EXPECT_GT(after->revision, before->revision);
+  EXPECT_GT(after->map_id, before->map_id);  // a new map id for the mirrors
+  EXPECT_EQ(after->start, before->start);    // the flight's start, not the respawn's position
+  size_t missing = 0;
+  for (const auto& block : before->tsdf.blockIndices()) {
+    if (after->tsdf.block(block) == nullptr) ++missing;
+  }
+  EXPECT_EQ(missing, 0u) << "of " << before->tsdf.numBlocks() << " blocks";
+  EXPECT_FALSE(std::filesystem::exists(checkpoint)) << "a clean stop removes the checkpoint";
+  std::filesystem::remove_all(dir);
+}
+
+TEST(KillModules, EachModuleKilledOnceInLockstepTheMissionStillEndsAtTheGoal) {
+  killEachModuleMidMission(true);
+}
+
+TEST(KillModules, EachModuleKilledOnceInRealTimeTheMissionStillEndsAtTheGoal) {
+  killEachModuleMidMission(false);
+}
+
+}  // namespace
