@@ -1,10 +1,13 @@
-// Killing modules mid-mission under the sheriff: config/sim.pmd's "fly" (its files in a temporary
-// folder, so that nothing is shared with a demo running beside it) in a private network namespace,
-// once in lockstep and once in real time. While the vehicle flies, the test SIGKILLs the mapper,
-// the VIO bridge, the planner and the explorer, one after the other, each once; the deputy
-// respawns them. The mission must still end at the goal without a collision, and the map must be
-// intact: every block the mapper had before it was killed is in the map it saves at the end
-// (the respawned mapper continues its checkpoint).
+// Faults during a mission under the sheriff: config/sim.pmd's "fly" (its files in a temporary
+// folder, so that nothing is shared with a demo running beside it) in a private network namespace.
+// - Killed modules, once in lockstep and once in real time: while the vehicle flies, the test
+//   SIGKILLs the mapper, the VIO bridge, the planner and the explorer, one after the other, each
+//   once; the deputy respawns them. The mission must still end at the goal without a collision,
+//   and the map must be intact: every block the mapper had before it was killed is in the map it
+//   saves at the end (the respawned mapper continues its checkpoint).
+// - Hostile messages: while the vehicle flies, every channel a module subscribes to carries
+//   random bytes, junk behind the channel type's fingerprint and truncated messages (none of
+//   which decodes); the mission must still end at the goal, every module refusing them.
 #include <sched.h>
 #include <signal.h>
 
@@ -12,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <random>
 #include <regex>
 #include <string>
 #include <vector>
@@ -21,6 +25,7 @@
 #include <thicket/mapper_status_t.hpp>
 #include <thicket/planner_status_t.hpp>
 
+#include "lcm_fuzz.h"
 #include "procman_test_support.h"
 #include "thicket/mapper/map_io.h"
 
@@ -81,6 +86,26 @@ int findProgram(const std::string& program) {
   return -1;
 }
 
+// The sheriff's exit and the log both say that the mission ended at the goal without a collision
+// (thicket-log mission exits 0 only then).
+void expectGoalReached(const ChildProcess& sheriff, const std::string& dir) {
+  const std::string output = sheriff.output();
+  EXPECT_EQ(sheriff.exitCode(), 0) << output;
+  EXPECT_NE(output.find("thicket-sim: goal reached"), std::string::npos) << output;
+  ChildProcess mission({THICKET_LOG, "mission", dir + "/mission.lcm.00"});
+  ASSERT_TRUE(mission.waitExit(60));
+  EXPECT_EQ(mission.exitCode(), 0) << mission.output();
+}
+
+// A fresh folder for one mission's files.
+std::string missionDir(const std::string& name) {
+  const std::string dir =
+      ::testing::TempDir() + "/mission_faults_" + std::to_string(::getpid()) + "_" + name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
 struct Heard {
   int final_statuses = 0;
   std::vector<std::string> restored;  // MAPPER_STATUS RESULT_RESTORED reasons
@@ -90,10 +115,7 @@ void killEachModuleMidMission(bool lockstep) {
   const DescendantReaper reaper;
   if (!privateNetwork()) GTEST_SKIP() << "no private network namespace here (needs root)";
   ::setenv("LCM_DEFAULT_URL", kUrl, 1);
-  const std::string dir = ::testing::TempDir() + "/kill_modules_" + std::to_string(::getpid()) +
-                          (lockstep ? "_lockstep" : "_realtime");
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::string dir = missionDir(lockstep ? "kill_lockstep" : "kill_realtime");
   const std::string sheet = missionSheet(dir, lockstep);
 
   lcm::LCM lcm(kUrl);
@@ -145,8 +167,8 @@ void killEachModuleMidMission(bool lockstep) {
   }
   EXPECT_EQ(killed.size(), victims.size()) << "the mission ended before every module was killed";
   while (!sheriff.waitExit(0.05)) lcm.handleTimeout(50);
+  expectGoalReached(sheriff, dir);
   const std::string output = sheriff.output();
-  ASSERT_EQ(sheriff.exitCode(), 0) << output;
 
   // Every module was killed once and came back; the simulator ended at the goal.
   for (const char* name : {"mapper", "vio_bridge", "planner", "explorer"}) {
@@ -155,12 +177,6 @@ void killEachModuleMidMission(bool lockstep) {
                                      std::sregex_iterator());
     EXPECT_EQ(kills, 1) << name << "\n" << output;
   }
-  EXPECT_NE(output.find("thicket-sim: goal reached"), std::string::npos) << output;
-
-  // The log says the same: goal reached, no collision (thicket-log mission exits 0 only then).
-  ChildProcess mission({THICKET_LOG, "mission", dir + "/mission.lcm.00"});
-  ASSERT_TRUE(mission.waitExit(60));
-  EXPECT_EQ(mission.exitCode(), 0) << mission.output();
 
   // The respawned mapper continued its checkpoint, and nothing mapped before the kill is lost.
   ASSERT_EQ(heard.restored.size(), 1u);
@@ -183,12 +199,71 @@ void killEachModuleMidMission(bool lockstep) {
   std::filesystem::remove_all(dir);
 }
 
-TEST(KillModules, EachModuleKilledOnceInLockstepTheMissionStillEndsAtTheGoal) {
+TEST(MissionFaults, EachModuleKilledOnceInLockstepTheMissionStillEndsAtTheGoal) {
   killEachModuleMidMission(true);
 }
 
-TEST(KillModules, EachModuleKilledOnceInRealTimeTheMissionStillEndsAtTheGoal) {
+TEST(MissionFaults, EachModuleKilledOnceInRealTimeTheMissionStillEndsAtTheGoal) {
   killEachModuleMidMission(false);
+}
+
+// Every channel a module of the graph subscribes to, with its type.
+const std::vector<std::pair<std::string, std::string>> kInputs = {
+    {"VIO_ODOMETRY", "thicket.odometry_t"},
+    {"STATE_ESTIMATE", "thicket.odometry_t"},
+    {"CAMERA_DEPTH", "thicket.depth_image_t"},
+    {"MAP_REQUEST", "thicket.map_request_t"},
+    {"MAP_TSDF", "thicket.map_update_t"},
+    {"MAP_ESDF", "thicket.map_update_t"},
+    {"MISSION_GOAL", "thicket.goal_t"},
+    {"EXPLORER_GOAL", "thicket.goal_t"},
+    {"PLANNER_STATUS", "thicket.planner_status_t"},
+    {"PLANNER_TRAJECTORY", "thicket.polynomial_trajectory_t"},
+};
+
+TEST(MissionFaults, AMissionUnderHostileMessagesStillEndsAtTheGoal) {
+  const DescendantReaper reaper;
+  if (!privateNetwork()) GTEST_SKIP() << "no private network namespace here (needs root)";
+  ::setenv("LCM_DEFAULT_URL", kUrl, 1);
+  const std::string dir = missionDir("fuzzed");
+  const std::string sheet = missionSheet(dir, true);
+  lcm::LCM lcm(kUrl);
+  ASSERT_TRUE(lcm.good());
+  ChildProcess sheriff({THICKET_SHERIFF, "-l", "--exit-after-script", "--wait-timeout", "240",
+                        "--status-period", "600", sheet, "fly"});
+  // Each round: on every channel, random bytes, junk behind the type's fingerprint, and a
+  // truncation of a valid message (a message that decodes would be obeyed: the bus is trusted).
+  std::mt19937 random(7);
+  std::vector<thicket::fuzz::Bytes> samples;
+  for (const auto& [channel, type] : kInputs) samples.push_back(thicket::fuzz::sampleBytes(type));
+  int rounds = 0;
+  while (!sheriff.waitExit(0)) {
+    for (size_t c = 0; c < kInputs.size(); ++c) {
+      const thicket::fuzz::Bytes& sample = samples[c];
+      thicket::fuzz::Bytes junk(random() % 300);
+      for (uint8_t& b : junk) b = static_cast<uint8_t>(random());
+      thicket::fuzz::Bytes behind(sample.begin(), sample.begin() + 8);
+      behind.resize(8 + random() % 300);
+      for (size_t b = 8; b < behind.size(); ++b) behind[b] = static_cast<uint8_t>(random());
+      const thicket::fuzz::Bytes cut(sample.begin(),
+                                     sample.begin() + static_cast<long>(random() % sample.size()));
+      for (const thicket::fuzz::Bytes* bytes :
+           std::initializer_list<const thicket::fuzz::Bytes*>{&junk, &behind, &cut}) {
+        lcm.publish(kInputs[c].first, bytes->data(), static_cast<unsigned>(bytes->size()));
+      }
+    }
+    ++rounds;
+    lcm.handleTimeout(20);
+  }
+  EXPECT_GT(rounds, 100);
+  expectGoalReached(sheriff, dir);
+  // Every module refused some (each prints its first refusals with the channel).
+  const std::string output = sheriff.output();
+  for (const char* module : {"[vio_bridge]", "[mapper]", "[planner]", "[explorer]", "[sim]"}) {
+    const std::regex refused(std::string("\\") + module + ".*refused message");
+    EXPECT_TRUE(std::regex_search(output, refused)) << module << "\n" << output.substr(0, 6000);
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
