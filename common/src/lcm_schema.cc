@@ -378,6 +378,8 @@ std::string withPath(const std::string& segment, const std::string& error) {
   return segment + (deeper ? "" : ": ") + error;
 }
 
+// Decodes a message that Checker found well-formed (LcmTypeSet::decode checks first): every size
+// is known to fit in the bytes, so nothing here allocates more than the message holds.
 class Decoder {
  public:
   Decoder(const uint8_t* data, size_t size) : reader_(data, size) {}
@@ -403,18 +405,8 @@ class Decoder {
                                          int depth) {
     if (dimension == field.dimensions.size()) return decodeElement(field, value, depth);
     const LcmDimension& d = field.dimensions[dimension];
-    int64_t count = d.size;
-    if (d.variable) {
-      count = parent.items[d.size_field_index].integer();
-      if (count < 0) {
-        return "size field " + d.size_field + " is negative (" + std::to_string(count) + ")";
-      }
-    }
-    const size_t element = std::max<size_t>(minimumSize(field, dimension + 1), 1);
-    if (static_cast<uint64_t>(count) > reader_.remaining() / element + 1) {
-      return "size " + std::to_string(count) + " (" + (d.variable ? d.size_field : "fixed") +
-             ") exceeds the " + std::to_string(reader_.remaining()) + " bytes left";
-    }
+    const int64_t count = d.variable ? parent.items[d.size_field_index].integer() : d.size;
+    if (count < 0) return std::string("negative size");  // (Checker refuses it first)
     const bool innermost_bytes = dimension + 1 == field.dimensions.size() && field.is_primitive &&
                                  field.primitive == Primitive::kByte;
     if (innermost_bytes) {
@@ -563,6 +555,24 @@ class Checker {
 
   Reader reader_;
 };
+
+// A message body (after its fingerprint) against `type`: what is malformed (with its path), or
+// the bytes left over after a well-formed one.
+struct BodyCheck {
+  std::optional<std::string> malformed;
+  size_t left = 0;      // bytes after the end of a well-formed body
+  size_t position = 0;  // where the body ended
+};
+
+BodyCheck checkBody(const LcmStruct& type, const void* data, size_t size) {
+  Checker checker(static_cast<const uint8_t*>(data), size);
+  checker.reader().skip(8);
+  BodyCheck result;
+  result.malformed = checker.checkStruct(type, 0);
+  result.left = checker.reader().remaining();
+  result.position = checker.reader().position();
+  return result;
+}
 
 class Encoder {
  public:
@@ -797,17 +807,20 @@ Expected<LcmValue> LcmTypeSet::decode(const void* data, size_t size) const {
     std::snprintf(hex, sizeof hex, "0x%016llx", static_cast<unsigned long long>(fingerprint));
     return unexpected(std::string("unknown fingerprint ") + hex);
   }
+  const BodyCheck body = checkBody(*type, data, size);
+  if (body.malformed) {
+    return unexpected("does not decode as " + type->fullName() + ": " + *body.malformed);
+  }
+  if (body.left != 0) {
+    return unexpected("does not decode as " + type->fullName() + ": " + std::to_string(body.left) +
+                      " bytes left over after " + std::to_string(body.position));
+  }
   Decoder decoder(static_cast<const uint8_t*>(data), size);
   uint64_t skipped = 0;
   decoder.reader().scalar(Primitive::kInt64, skipped);
   LcmValue value;
   if (auto error = decoder.decodeStruct(*type, value, 0)) {
     return unexpected("does not decode as " + type->fullName() + ": " + *error);
-  }
-  if (decoder.reader().remaining() != 0) {
-    return unexpected("does not decode as " + type->fullName() + ": " +
-                      std::to_string(decoder.reader().remaining()) + " bytes left over after " +
-                      std::to_string(decoder.reader().position()));
   }
   return value;
 }
@@ -825,14 +838,13 @@ std::string LcmTypeSet::check(const LcmStruct& type, const void* data, size_t si
                   static_cast<unsigned long long>(type.fingerprint));
     return text;
   }
-  Checker checker(static_cast<const uint8_t*>(data), size);
-  checker.reader().skip(8);
-  if (auto error = checker.checkStruct(type, 0)) {
-    return "malformed " + type.fullName() + " (" + std::to_string(size) + " bytes): " + *error;
+  const BodyCheck body = checkBody(type, data, size);
+  if (body.malformed) {
+    return "malformed " + type.fullName() + " (" + std::to_string(size) +
+           " bytes): " + *body.malformed;
   }
-  if (checker.reader().remaining() != 0) {
-    return type.fullName() + " followed by " + std::to_string(checker.reader().remaining()) +
-           " unexpected bytes";
+  if (body.left != 0) {
+    return type.fullName() + " followed by " + std::to_string(body.left) + " unexpected bytes";
   }
   return {};
 }
