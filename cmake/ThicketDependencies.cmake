@@ -1,7 +1,7 @@
 # Dependencies that every part of thicket uses. Heavy libraries (OpenCV, PCL, Ceres, OMPL) are
 # found by the modules that need them, so that the rest builds without their headers.
 
-# LCM 1.3.1 on Debian has no CMake package (DESIGN §5): find its pieces directly.
+# LCM 1.3.1 on Debian has no CMake package (docs/design.md §7): find its pieces directly.
 find_program(LCM_GEN lcm-gen REQUIRED)
 find_library(LCM_LIBRARY lcm REQUIRED)
 find_path(LCM_INCLUDE_DIR lcm/lcm-cpp.hpp REQUIRED)

@@ -64,7 +64,8 @@ void Loop::clearTerminationSignal() {
 Loop::Loop(lcm::LCM& lcm, MonotonicClock clock) : lcm_(lcm), clock_(std::move(clock)) {
   if (!lcm_.good()) {
     throw std::runtime_error(
-        "LCM is not usable (bad URL, or no multicast route: see DESIGN §5 for loopback setup)");
+        "LCM is not usable (bad URL, or no multicast route: see docs/design.md §5 for loopback "
+        "setup)");
   }
 }
 

@@ -1,4 +1,4 @@
-// thicket-sheriff: runs a process sheet through procman_lcm deputies (../shared/PROCMAN.md).
+// thicket-sheriff: runs a process sheet through procman_lcm deputies (docs/procman.md).
 // Headless: prints a status table and the commands' output to stdout, takes commands on stdin
 // (one per line; EOF does not quit), quits on `quit`, SIGINT or SIGTERM after stopping what it
 // ordered. See usage() for the options.

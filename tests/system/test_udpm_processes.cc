@@ -1,5 +1,5 @@
 // Two processes built on the node runtime exchange typed messages over udpm, inside a private
-// network namespace with a loopback multicast route (DESIGN §5). Where namespaces are not
+// network namespace with a loopback multicast route (docs/design.md §5). Where namespaces are not
 // permitted, a multicast port unique to this test run keeps it apart from other traffic.
 #include <gtest/gtest.h>
 

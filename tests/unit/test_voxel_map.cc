@@ -1,6 +1,7 @@
 // The voxel map core: indexing, ESDF queries against analytic fields, serialization and the
 // mirror's revision logic.
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -181,6 +182,31 @@ TEST(MapUpdate, EsdfVoxelsKeepTheirFlags) {
     EXPECT_EQ(voxel.observed, block.voxels[i].observed);
     EXPECT_EQ(voxel.fixed, block.voxels[i].fixed);
   }
+}
+
+// Layers compare by value: the padding bytes of an ESDF voxel (a float and two bools) hold
+// whatever the memory held before and must not make equal layers differ.
+TEST(VoxelLayer, IdenticalLayersIgnorePaddingButNotValues) {
+  static_assert(sizeof(EsdfVoxel) > sizeof(float) + 2 * sizeof(bool), "EsdfVoxel has padding");
+  EsdfLayer a(0.1), b(0.1);
+  auto& va = a.allocateBlock({1, 2, 3}).voxels;
+  auto& vb = b.allocateBlock({1, 2, 3}).voxels;
+  std::memset(static_cast<void*>(va.data()), 0x00, sizeof(va));
+  std::memset(static_cast<void*>(vb.data()), 0xa5, sizeof(vb));
+  for (size_t i = 0; i < va.size(); ++i) {
+    for (auto* v : {&va[i], &vb[i]}) {
+      v->distance = 0.25f * static_cast<float>(i % 7);
+      v->observed = i % 2 == 0;
+      v->fixed = i % 3 == 0;
+    }
+  }
+  EXPECT_TRUE(identicalLayers(a, b));
+  vb[5].fixed = !vb[5].fixed;
+  EXPECT_FALSE(identicalLayers(a, b));
+  vb[5].fixed = va[5].fixed;
+  vb[6].distance = -0.0f;  // va[6] is +0: bit for bit, they differ
+  va[6].distance = 0.0f;
+  EXPECT_FALSE(identicalLayers(a, b));
 }
 
 TEST(MapMirror, AppliesDeltasInOrderAndHealsGapsWithASnapshot) {

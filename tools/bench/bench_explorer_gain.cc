@@ -1,14 +1,13 @@
-// Exploration gain (DESIGN §1, local exploration): the fraction of unknown voxels in the 320x240,
-// 90°, 0.5-5 m camera frustum, checking every stride-th frustum point, on the map of the benchmark
-// flight (bench_worlds.h: 80 frames through forest50 at density 0.2, 0.20 m voxels). Each run
-// evaluates 200 seeded poses near the flight path (up to 1 m to the side, 0.5 m up or down, any
+// Exploration gain (docs/design.md §1, local exploration): the fraction of unknown voxels in the
+// 320x240, 90°, 0.5-5 m camera frustum, checking every stride-th frustum point, on the map of the
+// benchmark flight (bench_worlds.h: 80 frames through forest50 at density 0.2, 0.20 m voxels). Each
+// run evaluates 200 seeded poses near the flight path (up to 1 m to the side, 0.5 m up or down, any
 // heading), one per iteration. Counters: median_ms and p95_ms per evaluation; mean_abs_error and
 // max_abs_error against the exact (stride 1) fraction at the same poses; speedup, the median
 // stride-1 time (measured in the same run, before the timed loop) over the median time; fraction,
-// the share of frustum points checked (1 / stride). DESIGN's claim: 5 % of the points (stride 20)
-// give ~1 % error at ~3x the speed.
-// BM_ExplorationGainVisible does the same for the occlusion-aware variant (NBVP's gain), against
-// its own stride-1 values.
+// the share of frustum points checked (1 / stride). The paper's claim (docs/design.md §1): 5 % of
+// the points (stride 20) give ~1 % error at ~3x the speed. BM_ExplorationGainVisible does the same
+// for the occlusion-aware variant (NBVP's gain), against its own stride-1 values.
 #include <algorithm>
 #include <cmath>
 #include <numbers>

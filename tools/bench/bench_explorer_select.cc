@@ -2,10 +2,11 @@
 // paper scenario at density 0.3, seeds 0-4, optimization only, so the planner gets stuck where the
 // forest blocks it), each with the TSDF and ESDF the explorer would have seen and the cycle's start
 // and goal. BM_GoalSelection/<k> runs strategy k of explorer::strategyNames() (the order of the
-// BENCHMARK.md table), one request per iteration. Counters: median_ms and p95_ms per selection,
-// found (the share of requests answered with a goal), median_gain_evaluations. local_exploration
-// runs with P_g = 0, so every selection samples and scores its N candidates (with the default
-// P_g = 0.5 half the answers are the global goal at no cost). Target for local_exploration: median
+// docs/benchmark.md table), one request per iteration. Counters: median_ms and p95_ms per
+// selection, found (the share of requests answered with a goal), median_gain_evaluations.
+// local_exploration runs with P_g = 0, so every selection samples and scores its N candidates (with
+// the default P_g = 0.5 half the answers are the global goal at no cost). Target for
+// local_exploration: median
 // <= 1 ms (the paper: 5.9 ms).
 #include <memory>
 #include <vector>

@@ -63,7 +63,7 @@ void esdfFlight(benchmark::State& state, double voxel, size_t stride) {
   reportFrameTimes(state, ms, tsdf.memoryBytes() + esdf.memoryBytes());
 }
 
-// Arg: voxel size in mm. A frame per mapping cycle at v_max (DESIGN §1: 4 Hz, 1 m/s).
+// Arg: voxel size in mm. A frame per mapping cycle at v_max (docs/design.md §1: 4 Hz, 1 m/s).
 void BM_EsdfUpdate(benchmark::State& state) {
   esdfFlight(state, state.range(0) * 1e-3, 1);
 }

@@ -1,4 +1,4 @@
-// Rendering speed on the forest50 world at density 0.2 (BENCHMARK.md), from poses a vehicle
+// Rendering speed on the forest50 world at density 0.2 (docs/benchmark.md), from poses a vehicle
 // could fly: a depth frame should take under 2 ms and a stereo pair under 10 ms on one core.
 #include <cmath>
 #include <cstdint>

@@ -1,4 +1,4 @@
-// The benchmark world of BENCHMARK.md, forest50 at density 0.2, and poses a vehicle could fly
+// The benchmark world of docs/benchmark.md, forest50 at density 0.2, and poses a vehicle could fly
 // through it: shared by the benchmarks so they measure on the same frames.
 #pragma once
 
@@ -28,8 +28,8 @@ struct FlightFrame {
   Pose world_T_camera;
 };
 
-/// Frames in a flight, and the distance between two: one mapping cycle of DESIGN §1 (4 Hz) at
-/// v_max (1 m/s).
+/// Frames in a flight, and the distance between two: one mapping cycle of docs/design.md §1 (4 Hz)
+/// at v_max (1 m/s).
 constexpr int kFlightFrames = 80;
 constexpr double kFlightStep = 0.25;  // [m]
 

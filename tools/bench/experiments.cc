@@ -56,7 +56,7 @@ std::string trialLogFile(const std::string& key) {
 
 namespace {
 
-// ---- the experiments (BENCHMARK.md) ----
+// ---- the experiments (docs/benchmark.md) ----
 
 // An experiment that flies trials: the cross product of its lists, `trials` worlds each.
 struct Plan {
@@ -326,7 +326,8 @@ std::string experimentUsage() {
     return text;
   };
   return "usage: thicket-bench experiment --out DIR [options]\n"
-         "  Flies the trials of the benchmark's experiments (BENCHMARK.md) with the real nodes on\n"
+         "  Flies the trials of the benchmark's experiments (docs/benchmark.md) with the real "
+         "nodes on\n"
          "  memq://, on parallel threads, and writes DIR/trials.csv (one row per trial),\n"
          "  DIR/paths/<key>.csv, DIR/run_log.csv and the report. Every finished trial is kept at\n"
          "  once in DIR/rows/, so running the same command again resumes: trials already there\n"

@@ -1,4 +1,4 @@
-// thicket-bench experiment / merge: the benchmark's experiments (BENCHMARK.md: E1, E2, E4 fly
+// thicket-bench experiment / merge: the benchmark's experiments (docs/benchmark.md: E1, E2, E4 fly
 // trials; E3 and T1 are computed from E2's and E4's rows; E5 is its own program; E6 flies trials
 // with the simulator's dynamic obstacle), run as one deterministic list of trials that can be
 // resumed after a kill, split across machines (--shard i/N) and merged back.

@@ -1,5 +1,5 @@
-// The benchmark world of BENCHMARK.md, forest50 at density 0.2, and level poses a vehicle could
-// fly through it: shared by the benchmarks and the tests that measure on the same frames.
+// The benchmark world of docs/benchmark.md, forest50 at density 0.2, and level poses a vehicle
+// could fly through it: shared by the benchmarks and the tests that measure on the same frames.
 // THICKET_SOURCE_DIR must name the source tree.
 #pragma once
 

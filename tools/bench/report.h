@@ -1,4 +1,4 @@
-// The benchmark report (BENCHMARK.md, Outputs): reads an output folder's trials.csv (and
+// The benchmark report (docs/benchmark.md, Outputs): reads an output folder's trials.csv (and
 // run_log.csv and e5_subsampling.csv when present) and writes summary.md and figures/*.png. The
 // numbers are computed here; tools/bench/figures.py only draws the tables this code writes to
 // figures/*.csv, so every statistic has one implementation and is unit-tested.

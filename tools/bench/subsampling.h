@@ -1,4 +1,4 @@
-// Experiment E5 of the benchmark (BENCHMARK.md): the error and the speed-up of the exploration
+// Experiment E5 of the benchmark (docs/benchmark.md): the error and the speed-up of the exploration
 // gain (explorer/gain.h, the unknown fraction of the camera frustum) when only every stride-th
 // frustum point is checked, on maps the real graph flew. The real graph (local_exploration) flies
 // `maps` trials with a passive observer that mirrors the mapper's TSDF; camera poses are then

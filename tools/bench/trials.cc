@@ -39,7 +39,7 @@
 namespace thicket::bench {
 namespace {
 
-// The goal-selection methods (BENCHMARK.md, E2): the explorer strategy a method runs, or none
+// The goal-selection methods (docs/benchmark.md, E2): the explorer strategy a method runs, or none
 // (no explorer in the graph; the planner holds when stuck), and the options it sets over the
 // shipped configuration (YAML overlays, applied in order, over config/sim's explorer.yaml
 // `explorer:` group and local_planner.yaml `planner:` group). Adding a method or an ablation is
@@ -103,7 +103,7 @@ const Method kMethods[] = {
      true},
 };
 
-// The goal-finding variants of the optimization-only experiment (BENCHMARK.md, E1).
+// The goal-finding variants of the optimization-only experiment (docs/benchmark.md, E1).
 struct GoalFinding {
   const char* name;
   const char* finder_method;  // GoalFinderOptions::method
@@ -579,7 +579,7 @@ std::string pathFile(const RunOptions& options, int trial) {
   return options.out + "/paths/" + std::to_string(trial) + ".csv";
 }
 
-// trials.csv: the columns of BENCHMARK.md, then the median, p95 and max of every module stage
+// trials.csv: the columns of docs/benchmark.md, then the median, p95 and max of every module stage
 // seen in any trial (empty where a trial has none).
 void writeTrials(const RunOptions& options, const std::string& scenario,
                  const std::vector<TrialResult>& results) {

@@ -1,6 +1,6 @@
 // thicket-bench run: trials of one configuration, each with the real nodes (sim, mapper, local
 // planner and the method's nodes) hosted on one memq:// LCM in this process, several trials on
-// parallel threads (BENCHMARK.md). Trial i flies the world of seed base + i.
+// parallel threads (docs/benchmark.md). Trial i flies the world of seed base + i.
 #pragma once
 
 #include <cstdint>
@@ -34,7 +34,7 @@ std::string simConfigDir();
 struct RunOptions {
   std::string scenario = "paper";
   double density = 0;
-  std::string method = "none";        ///< the goal-selection strategy (BENCHMARK.md E2)
+  std::string method = "none";        ///< the goal-selection strategy (docs/benchmark.md E2)
   std::string goal_finding = "soft";  ///< "line", "gradient" or "soft" (gradient + soft goal)
   std::string sensor = "depth";  ///< "depth" (rendered depth) or "stereo" (through stereo_depth)
   int trials = 0;
@@ -42,7 +42,7 @@ struct RunOptions {
   int replans = 60;  ///< the sim's replan limit
   int jobs = 1;      ///< trials run on this many threads
   /// The simulator's dynamic obstacle (sim/dynamic_obstacle.h) with its default options: a
-  /// cylinder that appears on the committed path during the flight (BENCHMARK.md E6).
+  /// cylinder that appears on the committed path during the flight (docs/benchmark.md E6).
   bool dynamic_obstacle = false;
   std::string worlds_dir;
   /// Where the graph's option files are read (trialGraphOptions).
@@ -119,8 +119,8 @@ sim::World trialWorld(const RunOptions& options, int trial);
 /// mechanism buys) when `with_ablations` is false.
 std::vector<std::string> methodNames(bool with_ablations = true);
 std::vector<std::string> goalFindingNames();
-/// Whether `method` must never collide (BENCHMARK.md): every method but rrt_star_optimistic, the
-/// one that plans through unknown space.
+/// Whether `method` must never collide (docs/benchmark.md): every method but rrt_star_optimistic,
+/// the one that plans through unknown space.
 bool conservativeMethod(const std::string& method);
 
 /// The options of a trial's nodes besides the simulator's: what a trial builds and what the
@@ -149,7 +149,7 @@ TrialGraphOptions trialGraphOptions(const std::string& method, const std::string
 
 // ---- trials.csv, shared by `thicket-bench run` and `thicket-bench experiment` ----
 
-/// The columns of a trial's outcome, success ... end_reason (BENCHMARK.md's metrics), then the
+/// The columns of a trial's outcome, success ... end_reason (docs/benchmark.md's metrics), then the
 /// dynamic obstacle's obstacle_clearance_m (empty without one) and blocked_cycles.
 const std::vector<std::string>& outcomeColumns();
 /// A trial's cells under outcomeColumns(), unquoted; a line break in the end reason becomes a

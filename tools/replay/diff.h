@@ -23,7 +23,7 @@ struct ExcludedField {
   const char* field;  ///< a field of that type, wherever the type appears
   const char* why;
 };
-/// Wall-clock measurements: what a replay cannot reproduce, by design (DESIGN §2).
+/// Wall-clock measurements: what a replay cannot reproduce, by design (docs/design.md §2).
 const std::vector<ExcludedField>& excludedFields();
 
 struct FieldDifference {

@@ -1,5 +1,5 @@
 // thicket-replay: replay regression of the mapper, the planner, the explorer and the VIO bridge
-// against reference logs (DESIGN §4).
+// against reference logs (docs/design.md §4).
 //
 //   thicket-replay check LOG                  replays LOG into the real nodes, prints the diff
 //   thicket-replay record --out LOG ...       flies one simulated trial and records it

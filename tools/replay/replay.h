@@ -1,6 +1,6 @@
-// Replaying a recorded flight into the real nodes (DESIGN §4): the VIO bridge, the mapper, the
-// explorer and the local planner, each hosted on its own memq:// LCM, fed the log's inputs in log
-// order, with every message they publish captured.
+// Replaying a recorded flight into the real nodes (docs/design.md §4): the VIO bridge, the mapper,
+// the explorer and the local planner, each hosted on its own memq:// LCM, fed the log's inputs in
+// log order, with every message they publish captured.
 //
 // Why one LCM per node, not one for all: in the recorded graph everything shared one memq://
 // queue, so each node saw its inputs in the queue's order, and the log (written by a recorder on

@@ -1,9 +1,9 @@
-// The benchmark's smoke run in CI: every experiment of BENCHMARK.md, a few trials each on short
-// missions, run by `thicket-bench experiment` as a user runs it (the ctest bench_smoke_run, into
-// BENCH_SMOKE_DIR: its exit status says every trial ran), and here the invariants that must hold
-// whatever the numbers: every trial finished, no collision for a conservative strategy, a success
-// really ends at the goal, a conservative strategy stops short of E6's dynamic obstacle, and every
-// output (rows, paths, E5 table, summary, figures) well formed.
+// The benchmark's smoke run in CI: every experiment of docs/benchmark.md, a few trials each on
+// short missions, run by `thicket-bench experiment` as a user runs it (the ctest bench_smoke_run,
+// into BENCH_SMOKE_DIR: its exit status says every trial ran), and here the invariants that must
+// hold whatever the numbers: every trial finished, no collision for a conservative strategy, a
+// success really ends at the goal, a conservative strategy stops short of E6's dynamic obstacle,
+// and every output (rows, paths, E5 table, summary, figures) well formed.
 #include <cmath>
 #include <filesystem>
 #include <fstream>

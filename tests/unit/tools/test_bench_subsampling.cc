@@ -57,7 +57,7 @@ bool observed(const TsdfLayer& tsdf, const Eigen::Vector3d& p) {
 }
 
 // The mirror holds what the mapper integrated during the whole flight, not just its start: the
-// vehicle plans only through observed space beyond the start's clear radius (DESIGN §1), so
+// vehicle plans only through observed space beyond the start's clear radius (docs/design.md §1), so
 // nearly every voxel it flew through, far along the path too, is observed.
 TEST(Subsampling, MirroredMapCoversTheWholeFlight) {
   const FlownMap& map = flownMap();

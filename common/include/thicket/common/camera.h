@@ -1,7 +1,7 @@
 // The pinhole model shared by the renderer, the mapper's ray casting and the explorer's frustum
-// gain, and how the camera is mounted on the body. Optical frame (DESIGN §3): z along the optical
-// axis, x right, y down. Pixel centres are at integer (u, v), so an image spans
-// u in [-0.5, width - 0.5) and v in [-0.5, height - 0.5).
+// gain, and how the camera is mounted on the body. Optical frame (docs/design.md §3): z along the
+// optical axis, x right, y down. Pixel centres are at integer (u, v), so an image spans u in [-0.5,
+// width - 0.5) and v in [-0.5, height - 0.5).
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,5 @@
-// Rigid-body poses and a time-indexed pose buffer. Frames follow DESIGN §3: world z up, body x
-// forward / y left / z up; a Pose maps its child frame into its parent (body-to-world for a
+// Rigid-body poses and a time-indexed pose buffer. Frames follow docs/design.md §3: world z up,
+// body x forward / y left / z up; a Pose maps its child frame into its parent (body-to-world for a
 // vehicle pose). Messages carry quaternions as w, x, y, z; poseFromArrays/poseToArrays adapt them.
 #pragma once
 
@@ -89,8 +89,9 @@ struct PoseLookup {
 };
 
 /// Time-stamped poses in strictly increasing utime, answering "the pose at time t" by
-/// interpolation. This is how a node pairs a depth frame with the pose at its utime (DESIGN §2):
-/// on kNotYet it keeps the frame pending until a newer pose arrives, never using the latest pose.
+/// interpolation. This is how a node pairs a depth frame with the pose at its utime (docs/design.md
+/// §2): on kNotYet it keeps the frame pending until a newer pose arrives, never using the latest
+/// pose.
 class PoseHistory {
  public:
   explicit PoseHistory(PoseHistoryOptions options = {});

@@ -2,7 +2,7 @@
 // trusting the file (a torn tail, a corrupt header or an impossible length ends the reading with
 // a message saying where; LCM 1.3.1's reader crashes on some of them), writing them, recording live
 // traffic, and replaying a log into nodes without wall-clock pacing — how replay regression tests
-// drive modules (DESIGN §4).
+// drive modules (docs/design.md §4).
 #pragma once
 
 #include <cstdint>

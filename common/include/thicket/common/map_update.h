@@ -1,7 +1,7 @@
-// Voxel layers on the wire (DESIGN §3): the mapper publishes the blocks that changed in each map
-// revision as thicket::map_update_t (zstd-compressed, split so each message stays well under
-// 1 MB); planner and explorer keep a MapMirror that applies them in revision order and asks for
-// a full snapshot on MAP_REQUEST when it finds a gap or a restarted mapper.
+// Voxel layers on the wire (docs/design.md §3): the mapper publishes the blocks that changed in
+// each map revision as thicket::map_update_t (zstd-compressed, split so each message stays well
+// under 1 MB); planner and explorer keep a MapMirror that applies them in revision order and asks
+// for a full snapshot on MAP_REQUEST when it finds a gap or a restarted mapper.
 #pragma once
 
 #include <cstdint>

@@ -23,8 +23,8 @@ struct MessageInfo {
   size_t size = 0;         // encoded bytes
 };
 
-/// LCM 1.3.1 queues 30 messages per subscription and drops the newest when full (DESIGN §5).
-/// Nodes that receive bursts ask for more.
+/// LCM 1.3.1 queues 30 messages per subscription and drops the newest when full (docs/design.md
+/// §5). Nodes that receive bursts ask for more.
 inline constexpr int kDefaultQueueCapacity = 30;
 
 /// Checks that `data` holds exactly one encoded `Msg`; on success fills `msg` and returns an

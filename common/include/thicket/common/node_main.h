@@ -15,7 +15,7 @@
 
 namespace thicket {
 
-/// Loopback-only multicast: with ttl=0 nothing leaves the host (DESIGN §5).
+/// Loopback-only multicast: with ttl=0 nothing leaves the host (docs/design.md §5).
 inline constexpr const char* kLoopbackLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 
 /// $LCM_DEFAULT_URL when set and non-empty, else kLoopbackLcmUrl.

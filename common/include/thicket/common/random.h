@@ -1,5 +1,5 @@
-// Seeding (DESIGN §1, determinism): every random draw is seeded from the configuration and the
-// message being answered, so the same inputs give the same outputs in any process layout.
+// Seeding (docs/design.md §2, determinism): every random draw is seeded from the configuration and
+// the message being answered, so the same inputs give the same outputs in any process layout.
 #pragma once
 
 #include <cstdint>

@@ -1,4 +1,4 @@
-// The voxel map (DESIGN §1): layers of 16^3-voxel blocks in a hash map, allocated where
+// The voxel map (docs/design.md §1): layers of 16^3-voxel blocks in a hash map, allocated where
 // something was observed. A TSDF layer is what the mapper integrates depth into; an ESDF layer is
 // what the planner and the explorer query. Voxel (i, j, k) covers [i, i+1) x [j, j+1) x [k, k+1)
 // times the voxel size, its centre at (i + 0.5, j + 0.5, k + 0.5) times the voxel size; block
@@ -7,9 +7,9 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <memory>
 #include <stdexcept>
 #include <unordered_map>
@@ -172,15 +172,27 @@ class Layer {
   std::unordered_map<BlockIndex, std::unique_ptr<BlockType>, IndexHash> blocks_;
 };
 
-/// Whether two layers have the same voxel size, the same blocks and byte-identical voxels: what
-/// determinism and round-trip checks compare.
+/// Whether two voxels hold the same values, floats compared bit for bit (so -0 differs from 0 and
+/// a NaN equals itself); padding bytes, which hold no value, are not compared.
+inline bool identicalVoxels(const TsdfVoxel& a, const TsdfVoxel& b) {
+  return std::bit_cast<uint32_t>(a.distance) == std::bit_cast<uint32_t>(b.distance) &&
+         std::bit_cast<uint32_t>(a.weight) == std::bit_cast<uint32_t>(b.weight);
+}
+inline bool identicalVoxels(const EsdfVoxel& a, const EsdfVoxel& b) {
+  return std::bit_cast<uint32_t>(a.distance) == std::bit_cast<uint32_t>(b.distance) &&
+         a.observed == b.observed && a.fixed == b.fixed;
+}
+
+/// Whether two layers have the same voxel size, the same blocks and identical voxels
+/// (identicalVoxels): what determinism and round-trip checks compare.
 template <class Voxel>
 bool identicalLayers(const Layer<Voxel>& a, const Layer<Voxel>& b) {
   if (a.voxelSize() != b.voxelSize() || a.blockIndices() != b.blockIndices()) return false;
   for (const BlockIndex& index : a.blockIndices()) {
-    if (std::memcmp(a.block(index)->voxels.data(), b.block(index)->voxels.data(),
-                    sizeof(a.block(index)->voxels)) != 0) {
-      return false;
+    const auto& va = a.block(index)->voxels;
+    const auto& vb = b.block(index)->voxels;
+    for (size_t i = 0; i < va.size(); ++i) {
+      if (!identicalVoxels(va[i], vb[i])) return false;
     }
   }
   return true;

@@ -1,5 +1,5 @@
 // A command's exec string split into the argv and environment of its process, without a shell,
-// as procman deputies do it (../shared/PROCMAN.md).
+// as procman deputies do it (docs/procman.md).
 //
 // Rules:
 //  - Unquoted whitespace separates words.

@@ -1,5 +1,5 @@
 // thicket's procman deputy: runs the commands a sheriff orders on this host and reports them,
-// speaking the procman_lcm protocol (../shared/PROCMAN.md).
+// speaking the procman_lcm protocol (docs/procman.md).
 //
 // DeputyCore holds every decision — orders to starts and stops, run ids, respawn backoff, the
 // SIGKILL deadline of a stop, shutdown — with time passed in and processes reached through

@@ -1,4 +1,4 @@
-// Runs sheet scripts (../shared/PROCMAN.md "Scripts"): actions in order; start/stop/restart
+// Runs sheet scripts (docs/procman.md "Scripts"): actions in order; start/stop/restart
 // without a wait go on at once; waits block until the targets reach a state, or until `wait ms`
 // has passed; run_script runs another script to completion; starting a script aborts the active
 // one. A core with time passed in: it never reads a clock and never sleeps, so tests drive it

@@ -1,5 +1,5 @@
 // Process sheets (.pmd): the grammar shared by libbot2 bot-procman and ashuang/procman
-// (../shared/PROCMAN.md), parsed into commands in groups and scripts of actions. Every error
+// (docs/procman.md), parsed into commands in groups and scripts of actions. Every error
 // names the source, line and column ("sim.pmd:12:7: ..."), both 1-based; a column counts
 // characters (UTF-8 code points, a tab is one).
 //

@@ -1,4 +1,4 @@
-// The sheriff's core (../shared/PROCMAN.md "Sheriff"): the desired state of every command of a
+// The sheriff's core (docs/procman.md "Sheriff"): the desired state of every command of a
 // sheet, merged with what deputies report on PM_INFO, turned into status strings and into one
 // orders_t per deputy. No LCM, no clock: messages and times are passed in, so tests feed fake
 // deputy reports. thicket-sheriff (procman/sheriff/main.cc) wraps it with LCM and a console.

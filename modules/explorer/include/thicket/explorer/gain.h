@@ -1,14 +1,14 @@
-// The exploration gain of a view (DESIGN §1, local exploration): the fraction of unknown voxels in
-// the camera frustum at a pose. The frustum is sampled on a grid of voxel-size spacing in the
-// camera's optical frame, (i + 0.5, j + 0.5, k + 0.5) * voxel_size (z from min_range to max_range,
-// projecting into the half-open image), every point looked up in the TSDF; "every s-th frustum
-// voxel" takes every s-th grid point in a fixed order, so the estimate is deterministic and its
-// cost falls by s. The order is the Z-order (Morton code) of the grid indices: runs of consecutive
-// points are compact clusters, so every s-th point is a stratified sample (a row-major order
-// aliases with upright trunks). The occlusion variant (for NBVP) counts only unknown points the
-// camera could see: those whose ray from the camera meets no observed voxel at or behind a surface
-// (TSDF distance <= 0) before reaching them; hidden points count as checked but not unknown.
-// Unknown voxels hide nothing.
+// The exploration gain of a view (docs/design.md §1, local exploration): the fraction of unknown
+// voxels in the camera frustum at a pose. The frustum is sampled on a grid of voxel-size spacing in
+// the camera's optical frame, (i + 0.5, j + 0.5, k + 0.5) * voxel_size (z from min_range to
+// max_range, projecting into the half-open image), every point looked up in the TSDF; "every s-th
+// frustum voxel" takes every s-th grid point in a fixed order, so the estimate is deterministic and
+// its cost falls by s. The order is the Z-order (Morton code) of the grid indices: runs of
+// consecutive points are compact clusters, so every s-th point is a stratified sample (a row-major
+// order aliases with upright trunks). The occlusion variant (for NBVP) counts only unknown points
+// the camera could see: those whose ray from the camera meets no observed voxel at or behind a
+// surface (TSDF distance <= 0) before reaching them; hidden points count as checked but not
+// unknown. Unknown voxels hide nothing.
 #pragma once
 
 #include <cstdint>

@@ -1,8 +1,8 @@
-// Intermediate goal selection (DESIGN §1, step 3): when the local planner is stuck, a strategy
-// proposes where to go next. Strategies are selected by name and seeded from the configuration and
-// the planner cycle they answer, so the same request gives the same proposal in any process layout
-// (nbvp also re-seeds its tree from its previous answer, so its answers follow from the sequence
-// of requests, as in a replay).
+// Intermediate goal selection (docs/design.md §1, exploration): when the local planner is stuck, a
+// strategy proposes where to go next. Strategies are selected by name and seeded from the
+// configuration and the planner cycle they answer, so the same request gives the same proposal in
+// any process layout (nbvp also re-seeds its tree from its previous answer, so its answers follow
+// from the sequence of requests, as in a replay).
 //
 //   none                   proposes nothing (the optimization-only baseline)
 //   random                 a uniformly random point in the sphere of radius r around the start

@@ -1,4 +1,4 @@
-// Goal finding (DESIGN §1): the goal the optimizer aims at this cycle. The tracked goal is
+// Goal finding (docs/design.md §1): the goal the optimizer aims at this cycle. The tracked goal is
 // projected onto the planning horizon sphere around the start; when that point is not free it is
 // moved, either back along the straight line toward the start, or up the ESDF gradient (away from
 // obstacles) with a straight-line step wherever the gradient gives no direction (unknown space, a

@@ -1,4 +1,5 @@
-// The local planner's core (DESIGN §1–2): the goal state machine around goal finding and loco.
+// The local planner's core (docs/design.md §1–2): the goal state machine around goal finding and
+// loco.
 //
 // Goals. The operator's mission goal (waypoints, tracked in order) is the global goal. When a
 // cycle cannot plan toward it, the cycle is "stuck": with an explorer in the graph the planner

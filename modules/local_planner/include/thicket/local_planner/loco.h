@@ -1,13 +1,13 @@
-// Local trajectory optimization ("loco", DESIGN §1): the jerk spline of spline.h shaped by
+// Local trajectory optimization ("loco", docs/design.md §1): the jerk spline of spline.h shaped by
 //
 //   J = w_d J_d + w_c J_c + w_g J_g
 //
 // J_d the jerk cost; J_c = Σ_k c(d(f(t_k))) ||v(t_k)|| Δt the collision line integral sampled
 // every Δt on the interpolated ESDF distance d (unknown space reads d = 0), plus the end point
 // weighted as if flown at v_max (so a free end cannot come to rest inside an obstacle); J_g the
-// soft goal cost ||f(T) - g|| (free end only). The potential c is CHOMP's (DESIGN §1) measured
-// from the clearance acceptance asks for, robot radius + clearance margin, rather than from the
-// bare radius, so that the optimum clears the acceptance test instead of grazing it.
+// soft goal cost ||f(T) - g|| (free end only). The potential c is CHOMP's (docs/design.md §1)
+// measured from the clearance acceptance asks for, robot radius + clearance margin, rather than
+// from the bare radius, so that the optimum clears the acceptance test instead of grazing it.
 // Minimized over the free end-derivatives with Ceres' gradient-problem solver (L-BFGS),
 // gradients in closed form. A solution is accepted only when every Δt sample is known with
 // distance >= robot radius + clearance margin and the spline keeps v_max and a_max. A clear
@@ -63,7 +63,7 @@ struct ClearanceCheck {
 ClearanceCheck checkClearance(const PolynomialTrajectory& trajectory, double from,
                               const DistanceField& field, double required, double escape_slack = 0);
 
-/// CHOMP's collision potential of distance d (DESIGN §1) and its derivative dc/dd. With
+/// CHOMP's collision potential of distance d (docs/design.md §1) and its derivative dc/dd. With
 /// d' = d - radius: -d' + ε/2 inside the radius, (d' - ε)² / (2ε) within ε of it, 0 beyond.
 /// Continuous with a continuous derivative. Loco passes robot radius + clearance margin.
 struct Potential {

@@ -1,6 +1,6 @@
-// The local planner's trajectory space (DESIGN §1, loco): a spline of polynomial segments of order
-// 9 (10 coefficients), continuous up to the 4th derivative (snap), parametrized after Richter et
-// al. by the derivatives at the segment ends rather than by coefficients:
+// The local planner's trajectory space (docs/design.md §1, loco): a spline of polynomial segments
+// of order 9 (10 coefficients), continuous up to the 4th derivative (snap), parametrized after
+// Richter et al. by the derivatives at the segment ends rather than by coefficients:
 //
 //   c = A⁻¹ M [d_F; d_P]
 //
@@ -32,9 +32,9 @@ using Derivatives = Eigen::Matrix<double, Eigen::Dynamic, 3>;
 /// std::invalid_argument unless distance >= 0 and the limits are positive, all finite.
 double velocityRampTime(double distance, double v_max, double a_max);
 
-/// Segment durations for a move of `distance` (DESIGN §1): `scale` times the velocity-ramp time
-/// (at least `min_total` seconds), split evenly over `segments`. Throws as velocityRampTime, and
-/// std::invalid_argument unless segments >= 1 and scale, min_total > 0.
+/// Segment durations for a move of `distance` (docs/design.md §1): `scale` times the velocity-ramp
+/// time (at least `min_total` seconds), split evenly over `segments`. Throws as velocityRampTime,
+/// and std::invalid_argument unless segments >= 1 and scale, min_total > 0.
 std::vector<double> segmentTimes(double distance, double v_max, double a_max, int segments = 3,
                                  double scale = 1.2, double min_total = 0.1);
 
@@ -54,7 +54,7 @@ class JerkSpline {
   static constexpr int kVertexDerivatives = 5;  ///< orders 0..4 at every vertex
 
   /// segment_times: one positive, finite duration per segment [s]. free_end_position: the end
-  /// position is a decision variable (the soft goal of DESIGN §1) instead of fixed. Throws
+  /// position is a decision variable (the soft goal of docs/design.md §1) instead of fixed. Throws
   /// std::invalid_argument on an empty list or a bad duration.
   JerkSpline(std::vector<double> segment_times, bool free_end_position);
 

@@ -1,6 +1,6 @@
-// The incremental Euclidean signed distance field (DESIGN §1, mapping): the TSDF blocks that a
-// depth frame changed, and the vehicle's position, in; the ESDF updated in place, and the ESDF
-// blocks that changed, out.
+// The incremental Euclidean signed distance field (docs/design.md §1, mapping): the TSDF blocks
+// that a depth frame changed, and the vehicle's position, in; the ESDF updated in place, and the
+// ESDF blocks that changed, out.
 //
 // Every voxel gets a class from its TSDF voxel and two spheres ("unknown space is occupied"):
 //   - observed (TSDF weight >= min_weight, distance not NaN; compared as floats) with

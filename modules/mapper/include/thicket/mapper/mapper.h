@@ -1,5 +1,6 @@
-// The mapper core (DESIGN §2): depth frames and body poses in, a TSDF and an incrementally updated
-// ESDF out, one map revision per integrated frame. No LCM: the node adapts messages to this.
+// The mapper core (docs/design.md §2): depth frames and body poses in, a TSDF and an incrementally
+// updated ESDF out, one map revision per integrated frame. No LCM: the node adapts messages to
+// this.
 //
 // A frame is integrated with the body pose at its own utime, interpolated from the pose stream;
 // a frame newer than the newest pose waits (pending) until the poses catch up, never taking "the

@@ -1,5 +1,5 @@
-// TSDF integration (DESIGN §1, mapping): one depth image and the camera pose in, updated voxels
-// and the blocks that changed out, so that the ESDF can be updated incrementally from them.
+// TSDF integration (docs/design.md §1, mapping): one depth image and the camera pose in, updated
+// voxels and the blocks that changed out, so that the ESDF can be updated incrementally from them.
 //
 // Both integrators apply the same per-voxel rule. A return at depth z (optical-frame z [m]) gives
 // the voxels along its line of sight sdf = measured - voxel distance, clamped to

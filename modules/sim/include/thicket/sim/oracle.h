@@ -1,5 +1,5 @@
 // The solvability oracle: whether a trial could have succeeded at all at a given robot radius, and
-// how narrow a world's passages are (BENCHMARK.md).
+// how narrow a world's passages are (docs/benchmark.md).
 #pragma once
 
 #include <string>

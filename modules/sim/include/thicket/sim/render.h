@@ -1,7 +1,7 @@
-// What the simulated cameras see (DESIGN §2, sim): an exact ray caster against the ground-truth
-// World, a depth camera (CAMERA_DEPTH), and a rectified grayscale stereo pair (STEREO) whose
-// surfaces carry a procedural texture so that stereo matching has something to match at 1-20 m.
-// Everything is deterministic and computed per pixel, independently of the other pixels.
+// What the simulated cameras see (docs/design.md §2, sim): an exact ray caster against the
+// ground-truth World, a depth camera (CAMERA_DEPTH), and a rectified grayscale stereo pair (STEREO)
+// whose surfaces carry a procedural texture so that stereo matching has something to match at 1-20
+// m. Everything is deterministic and computed per pixel, independently of the other pixels.
 #pragma once
 
 #include <cstdint>
@@ -132,7 +132,7 @@ class RayCaster {
   std::vector<Cylinder> cylinders_;
 };
 
-/// A simulated depth camera looking forward along body x (BENCHMARK.md: 320x240, 90°, 20 m).
+/// A simulated depth camera looking forward along body x (docs/benchmark.md: 320x240, 90°, 20 m).
 struct DepthCameraOptions {
   int width = 320;                 ///< [pixels]
   int height = 240;                ///< [pixels]

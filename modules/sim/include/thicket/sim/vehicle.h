@@ -77,7 +77,7 @@ class Vehicle {
   /// The committed trajectory, nullptr before the first one.
   const PolynomialTrajectory* trajectory() const { return trajectory_ ? &*trajectory_ : nullptr; }
 
-  // Mission metrics (BENCHMARK.md).
+  // Mission metrics (docs/benchmark.md).
   double pathLength() const { return path_length_; }
   double minClearance() const { return min_clearance_; }
   double maxSpeed() const { return max_speed_; }

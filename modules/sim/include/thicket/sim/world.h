@@ -1,5 +1,5 @@
-// The simulator's ground-truth world (BENCHMARK.md): vertical cylinders ("trees") standing on a
-// ground plane at z = 0, inside walls on the x/y boundary. Generated from (scenario, density,
+// The simulator's ground-truth world (docs/benchmark.md): vertical cylinders ("trees") standing on
+// a ground plane at z = 0, inside walls on the x/y boundary. Generated from (scenario, density,
 // seed) with a fully specified generator, so the same triple gives the same world on any machine.
 #pragma once
 

@@ -1,6 +1,6 @@
 // The VIO bridge's core: turns a visual-inertial odometry estimate, given in the VIO's own frames,
-// into thicket's state estimate (DESIGN §3: world z up; body x forward, y left, z up) and gates it.
-// No LCM inside: odometry_t is used here only as the plain struct lcm-gen generates.
+// into thicket's state estimate (docs/design.md §3: world z up; body x forward, y left, z up) and
+// gates it. No LCM inside: odometry_t is used here only as the plain struct lcm-gen generates.
 //
 // Frames. The VIO reports the pose of its body frame B' (an IMU or a camera) in its world frame
 // W'. Two fixed transforms, from configuration, bring that into thicket's frames:
