@@ -147,6 +147,20 @@ TEST_F(MemqTest, TruncatedAndPaddedMessagesAreRefused) {
   EXPECT_EQ(calls, 1);
 }
 
+// A message whose generated encoded size overflowed (negative) is refused before any buffer is
+// sized from it: it used to become a vector of SIZE_MAX bytes and throw.
+struct OverflowingMessage {
+  static const char* getTypeName() { return "overflowing_t"; }
+  int getEncodedSize() const { return -16; }
+  int encode(void*, int, int) const { return -1; }
+};
+
+TEST_F(MemqTest, AMessageWhoseSizeOverflowsIsNotPublished) {
+  Node node("node", lcm);
+  EXPECT_FALSE(node.publish("CHANNEL", OverflowingMessage{}));
+  EXPECT_NE(node.lastError().find("encoded size overflows"), std::string::npos) << node.lastError();
+}
+
 TEST_F(MemqTest, HandlerExceptionIsReportedAndTheNodeGoesOn) {
   Node node("node", lcm);
   std::vector<int64_t> handled;

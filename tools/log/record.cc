@@ -1,5 +1,11 @@
 #include "record.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -48,18 +54,32 @@ Expected<std::string> chooseRecordPath(const std::string& out, bool increment, b
   if (!parent.empty() && !fs::is_directory(parent, error)) {
     return unexpected("the directory '" + parent.string() + "' does not exist");
   }
+  if (fs::is_directory(out, error) && !increment) return unexpected("'" + out + "' is a directory");
+  if (force && !increment) return out;
+  // Claimed by creating it: two recorders started together never pick the same file.
+  const auto claim = [](const std::string& path) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd < 0) return errno;
+    ::close(fd);
+    return 0;
+  };
   if (!increment) {
-    if (fs::is_directory(out, error)) return unexpected("'" + out + "' is a directory");
-    if (fs::exists(out, error) && !force) {
+    const int failed = claim(out);
+    if (failed == EEXIST) {
       return unexpected("'" + out + "' exists (--force overwrites it, --increment numbers logs)");
     }
+    if (failed != 0) return unexpected("cannot create '" + out + "': " + std::strerror(failed));
     return out;
   }
   for (int n = 0; n < 100; ++n) {
     char suffix[8];
     std::snprintf(suffix, sizeof suffix, ".%02d", n);
     const std::string candidate = out + suffix;
-    if (!fs::exists(candidate, error) && !error) return candidate;
+    const int failed = claim(candidate);
+    if (failed == 0) return candidate;
+    if (failed != EEXIST) {
+      return unexpected("cannot create '" + candidate + "': " + std::strerror(failed));
+    }
   }
   return unexpected("'" + out + ".00' .. '" + out + ".99' all exist");
 }
@@ -74,9 +94,14 @@ int record(const RecordOptions& options) {
     std::fprintf(stderr, "thicket-log: %s\n", path.error().c_str());
     return 2;
   }
+  // What cannot start leaves no empty log behind (a forced OUT was not created here).
+  const auto unclaim = [&] {
+    if (!options.force || options.increment) std::remove(path->c_str());
+  };
   lcm::LCM lcm(options.lcm_url);
   if (!lcm.good()) {
     std::fprintf(stderr, "thicket-log: cannot open LCM at %s\n", options.lcm_url.c_str());
+    unclaim();
     return 2;
   }
   Loop::installSignalHandlers();
@@ -85,6 +110,7 @@ int record(const RecordOptions& options) {
     recorder = std::make_unique<LogRecorder>(lcm, *path, options.channels, options.queue);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "thicket-log: %s\n", e.what());
+    unclaim();
     return 2;
   }
   std::fprintf(stderr, "thicket-log: recording '%s' from %s to %s\n", options.channels.c_str(),

@@ -25,7 +25,9 @@ struct RecordOptions {
 std::string validateRecordOptions(const RecordOptions& options);
 
 /// The file to write: `out` itself (an error when it exists, unless `force`), or with `increment`
-/// the first of out.00 .. out.99 that does not exist (lcm-logger's -i naming).
+/// the first of out.00 .. out.99 that does not exist (lcm-logger's -i naming). Unless forced, the
+/// file is claimed by creating it empty (O_EXCL), so that recorders started at once never share
+/// one.
 Expected<std::string> chooseRecordPath(const std::string& out, bool increment, bool force);
 
 /// Records until SIGINT or SIGTERM, then until the bus has been quiet for `drain_s` (at most 2 s

@@ -30,7 +30,9 @@ struct ChannelSummary {
   int64_t decode_failures = 0;   ///< messages of a known type that did not decode as it
   std::string first_decode_error;
 
-  double durationSeconds() const { return 1e-6 * static_cast<double>(last_utime - first_utime); }
+  double durationSeconds() const {
+    return 1e-6 * (static_cast<double>(last_utime) - static_cast<double>(first_utime));
+  }
   /// Messages per second over the channel's span, (count - 1) / duration; 0 when undefined
   /// (fewer than two messages or no time between them).
   double rateHz() const;
@@ -51,7 +53,9 @@ struct LogSummary {
   std::string error;
   std::vector<std::string> warnings;  ///< e.g. timestamps going backwards
 
-  double spanSeconds() const { return 1e-6 * static_cast<double>(last_utime - first_utime); }
+  double spanSeconds() const {
+    return 1e-6 * (static_cast<double>(last_utime) - static_cast<double>(first_utime));
+  }
 };
 
 /// Reads the whole log. The error is for a file that cannot be opened; a damaged log gives the

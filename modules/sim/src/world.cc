@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <random>
 
+#include <nlohmann/json.hpp>
+
 #include "thicket/common/params.h"
 
 namespace thicket::sim {
@@ -132,38 +134,6 @@ uint64_t fnv1a(const std::string& text) {
   return hash;
 }
 
-void appendNumber(std::string& out, double value) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.17g", value);
-  out += text;
-}
-
-void appendVector(std::string& out, const Eigen::Vector3d& v) {
-  out += '[';
-  for (int i = 0; i < 3; ++i) {
-    if (i) out += ',';
-    appendNumber(out, v[i]);
-  }
-  out += ']';
-}
-
-void appendString(std::string& out, const std::string& text) {
-  out += '"';
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof(escaped), "\\u%04x", c);
-      out += escaped;
-    } else {
-      out += c;
-    }
-  }
-  out += '"';
-}
-
 }  // namespace
 
 Expected<ScenarioSpec> loadScenario(const std::string& name_or_path,
@@ -257,36 +227,22 @@ Expected<World> generateWorld(const ScenarioSpec& spec, double density, uint64_t
 }
 
 std::string worldToJson(const World& world) {
-  std::string out = "{\"scenario\":";
-  appendString(out, world.scenario);
-  out += ",\"density\":";
-  appendNumber(out, world.density);
-  out += ",\"seed\":" + std::to_string(world.seed);
-  out += ",\"bounds_min\":";
-  appendVector(out, world.bounds_min);
-  out += ",\"bounds_max\":";
-  appendVector(out, world.bounds_max);
-  out += ",\"start\":";
-  appendVector(out, world.start);
-  out += ",\"goal\":";
-  appendVector(out, world.goal);
-  out += ",\"robot_radius\":";
-  appendNumber(out, world.robot_radius);
-  out += ",\"cylinders\":[";
-  for (size_t i = 0; i < world.cylinders.size(); ++i) {
-    const Cylinder& c = world.cylinders[i];
-    out += i ? ",{\"x\":" : "{\"x\":";
-    appendNumber(out, c.x);
-    out += ",\"y\":";
-    appendNumber(out, c.y);
-    out += ",\"radius\":";
-    appendNumber(out, c.radius);
-    out += ",\"height\":";
-    appendNumber(out, c.height);
-    out += '}';
+  using Json = nlohmann::ordered_json;
+  const auto vector = [](const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); };
+  Json cylinders = Json::array();
+  for (const Cylinder& c : world.cylinders) {
+    cylinders.push_back({{"x", c.x}, {"y", c.y}, {"radius", c.radius}, {"height", c.height}});
   }
-  out += "]}";
-  return out;
+  const Json json = {{"scenario", world.scenario},
+                     {"density", world.density},
+                     {"seed", world.seed},
+                     {"bounds_min", vector(world.bounds_min)},
+                     {"bounds_max", vector(world.bounds_max)},
+                     {"start", vector(world.start)},
+                     {"goal", vector(world.goal)},
+                     {"robot_radius", world.robot_radius},
+                     {"cylinders", cylinders}};
+  return json.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
 }  // namespace thicket::sim

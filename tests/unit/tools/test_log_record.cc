@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -55,6 +56,21 @@ TEST_F(RecordTest, IncrementTakesTheFirstFreeNumberAsLcmLoggerDoes) {
   path = chooseRecordPath(out, true, false);
   ASSERT_TRUE(path) << path.error();
   EXPECT_EQ(*path, out + ".01");
+}
+
+// Two recorders started together (the name checked, then created) used to pick the same file and
+// truncate each other: choosing claims the file.
+TEST_F(RecordTest, EachChoiceClaimsItsFile) {
+  const std::string out = tempPath("twice.lcm");
+  const auto first = chooseRecordPath(out, true, false);
+  const auto second = chooseRecordPath(out, true, false);
+  ASSERT_TRUE(first && second);
+  EXPECT_EQ(*first, out + ".00");
+  EXPECT_EQ(*second, out + ".01");
+  EXPECT_TRUE(std::filesystem::exists(*first));
+  const std::string plain = tempPath("once.lcm");
+  ASSERT_TRUE(chooseRecordPath(plain, false, false));
+  EXPECT_FALSE(chooseRecordPath(plain, false, false));
 }
 
 TEST_F(RecordTest, RefusesAMissingDirectoryADirectoryAndBadOptions) {

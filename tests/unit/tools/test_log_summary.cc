@@ -3,6 +3,7 @@
 // logs; the table and the JSON as the executable prints them.
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
+#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <fstream>
@@ -363,6 +364,26 @@ TEST_F(LogSummary, JsonHasTheSameNumbers) {
   const YAML::Node damaged = YAML::Load(torn.output);
   EXPECT_FALSE(damaged["complete"].as<bool>());
   EXPECT_NE(damaged["error"].as<std::string>().find("torn or corrupt event"), std::string::npos);
+}
+
+// Whatever the file holds, --json prints JSON: a channel name that is not UTF-8 (the hand-made
+// writer copied its bytes) and times at the ends of int64 (whose difference overflowed).
+TEST_F(LogSummary, JsonIsValidForAnyFile) {
+  const std::string path = tempPath("odd.lcm");
+  {
+    LogWriter writer(path);
+    const std::vector<uint8_t> alien = alienMessage(4);
+    writer.write(INT64_MIN + 1, "BAD\xff\xfe", alien.data(), alien.size());
+    writer.write(INT64_MAX, "BAD\xff\xfe", alien.data(), alien.size());
+  }
+  const CliResult result = run("summary '" + path + "' --json");
+  ASSERT_EQ(result.status, 0) << result.output;
+  nlohmann::json json;
+  ASSERT_NO_THROW(json = nlohmann::json::parse(result.output)) << result.output;
+  ASSERT_TRUE(json["span_s"].is_number());
+  EXPECT_GT(json["span_s"].get<double>(), 1.8e13);  // 2^64 us, not a wrapped difference
+  ASSERT_EQ(json["channels"].size(), 1u);
+  EXPECT_EQ(json["channels"][0]["count"].get<int64_t>(), 2);
 }
 
 }  // namespace

@@ -132,9 +132,14 @@ void Node::subscribe(const std::string& channel,
 
 template <class Msg>
 bool Node::publish(const std::string& channel, const Msg& msg) {
+  // LCM's generated sizes are ints: a message too large for one overflows to a negative size.
   const int size = msg.getEncodedSize();
+  if (size < 0) {
+    return publishFailed(channel, std::string("cannot encode ") + Msg::getTypeName() +
+                                      ": its encoded size overflows");
+  }
   std::vector<uint8_t> buffer(static_cast<size_t>(size));
-  if (size < 0 || msg.encode(buffer.data(), 0, size) != size) {
+  if (msg.encode(buffer.data(), 0, size) != size) {
     return publishFailed(channel, std::string("cannot encode ") + Msg::getTypeName());
   }
   return publishRaw(channel, buffer.data(), buffer.size());
