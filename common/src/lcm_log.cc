@@ -35,6 +35,12 @@ LogReader::LogReader(const std::string& path) : path_(path), file_(std::fopen(pa
   if (!file_ || ::fstat(fileno(file_.get()), &info) != 0) {
     throw std::runtime_error("cannot open log '" + path + "': " + std::strerror(errno));
   }
+  // Every length is checked against the file's size, which a pipe or a device does not have.
+  if (!S_ISREG(info.st_mode)) {
+    throw std::runtime_error("cannot read log '" + path +
+                             "': not a regular file (a pipe or a device has no size to check "
+                             "event lengths against; write it to a file first)");
+  }
   file_size_ = info.st_size;
 }
 

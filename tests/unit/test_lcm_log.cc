@@ -80,6 +80,21 @@ TEST(LcmLog, MissingFileIsAClearError) {
   EXPECT_THROW(LogWriter writer(path), std::runtime_error);
 }
 
+// A pipe has no size: it used to read as an empty log (0 events, no error).
+TEST(LcmLog, APipeIsRefusedNotReadAsEmpty) {
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  const std::string path = "/proc/self/fd/" + std::to_string(fds[0]);
+  try {
+    LogReader reader(path);
+    ADD_FAILURE() << "a pipe was opened as a log";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+  }
+  ::close(fds[0]);
+  ::close(fds[1]);
+}
+
 TEST(LcmLog, TornTailEndsTheLogWithAnError) {
   const std::string path = tempPath("torn.lcmlog");
   {

@@ -8,7 +8,7 @@
 namespace thicket::sim {
 
 /// Writes depth in metres as a 16-bit PNG in millimetres (0 = no return; beyond 65.535 m: 0).
-/// Returns an error text, empty on success.
+/// Returns an error text, empty on success (also when the pixels do not fill width x height).
 std::string writeDepthPng(const std::string& path, int width, int height,
                           const std::vector<float>& depth_m);
 /// Writes an 8-bit grayscale PNG.

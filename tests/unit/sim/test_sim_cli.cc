@@ -13,6 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "cli.h"
+#include "png.h"
 #include "sim_node.h"
 #include "thicket/sim/render.h"
 #include "thicket/sim/world.h"
@@ -142,6 +143,21 @@ TEST(SimCli, RunWithoutAPlannerAbortsInLockstep) {
   EXPECT_EQ(result.status, 1) << result.output;
   EXPECT_NE(result.output.find("aborted: no final planner status for 0.2"), std::string::npos)
       << result.output;
+}
+
+// The PNG writers refuse pixels that do not fill the image instead of reading past them.
+TEST(SimPng, PixelsThatDoNotFillTheImageAreRefused) {
+  const std::string path = ::testing::TempDir() + "/sim_png_" + std::to_string(::getpid()) + ".png";
+  EXPECT_NE(writeDepthPng(path, 4, 3, std::vector<float>(11, 1.0f)).find("11 pixels for a 4 x 3"),
+            std::string::npos);
+  EXPECT_NE(writeGrayPng(path, 4, 3, std::vector<uint8_t>(13, 7)).find("13 pixels"),
+            std::string::npos);
+  EXPECT_NE(writeDepthPng(path, 0, 3, {}).find("for a 0 x 3"), std::string::npos);
+  ASSERT_EQ(writeDepthPng(path, 4, 3, std::vector<float>(12, 1.5f)), "");
+  const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(image.type(), CV_16UC1);
+  EXPECT_EQ(image.at<uint16_t>(2, 3), 1500);
+  std::remove(path.c_str());
 }
 
 }  // namespace
