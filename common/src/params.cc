@@ -294,8 +294,9 @@ struct Params::Impl {
   }
 
   // The one path every field takes. `parse` turns YAML into a valid T or throws ParamError;
-  // `format` writes T as YAML. The default is checked by parsing its own YAML form, which proves
-  // both that it satisfies the declaration and that describeParams output loads back.
+  // `format` writes T as YAML. The value in the struct (the default, or what code set) is checked
+  // by parsing its own YAML form, which proves both that it satisfies the declaration and that
+  // describeParams output loads back.
   template <class T, class Parse, class Format>
   void field(const std::string& key, T& value, const std::string& doc,
              const std::string& constraint, Parse parse, Format format) {
@@ -305,7 +306,7 @@ struct Params::Impl {
       parse(Where{"", levels.back().prefix + key, YAML::Mark::null_mark()},
             YAML::Load(default_text));
     } catch (const ParamError& e) {
-      throw std::logic_error(std::string("invalid default: ") + e.what());
+      throw std::logic_error(std::string("invalid value: ") + e.what());
     }
     if (describing) {
       emit(key, default_text, doc, constraint);

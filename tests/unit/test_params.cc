@@ -382,7 +382,7 @@ TEST(Params, DeclarationMistakesAreLogicErrors) {
     thicket::describeParams<DefaultOutOfRange>();
     FAIL() << "out-of-range default accepted";
   } catch (const std::logic_error& e) {
-    EXPECT_TRUE(contains(e.what(), "invalid default: key 'gain': 0 is out of range: must be > 0"));
+    EXPECT_TRUE(contains(e.what(), "invalid value: key 'gain': 0 is out of range: must be > 0"));
   }
   // ParamError is also a runtime_error, never a logic_error: the two must stay apart.
   EXPECT_FALSE((std::is_base_of_v<std::logic_error, ParamError>));

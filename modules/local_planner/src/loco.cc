@@ -275,16 +275,9 @@ std::string format3(double x) {
 }  // namespace
 
 Loco::Loco(LocoOptions options) : options_(std::move(options)) {
-  const LocoOptions& o = options_;
-  const auto finite_nonneg = [](double x) { return std::isfinite(x) && x >= 0; };
-  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
-  if (!finite_nonneg(o.w_d) || !finite_nonneg(o.w_c) || !finite_nonneg(o.w_g) ||
-      !positive(o.robot_radius) || !positive(o.potential_margin) || !positive(o.sample_dt) ||
-      !finite_nonneg(o.clearance_margin) || !finite_nonneg(o.potential_buffer) ||
-      !positive(o.v_max) || !positive(o.a_max) || o.segments < 1 || !positive(o.time_scale) ||
-      o.restarts < 0 || !finite_nonneg(o.restart_radius) || o.max_iterations < 1 ||
-      !positive(o.goal_smoothing) || !(o.function_tolerance > 0 && o.function_tolerance < 1)) {
-    throw std::invalid_argument("Loco: an option is out of range (see LocoOptions)");
+  // The rules of LocoOptions::declare, which YAML loading enforces too.
+  if (const std::string error = paramsError(options_); !error.empty()) {
+    throw std::invalid_argument("Loco: " + error);
   }
 }
 

@@ -418,6 +418,19 @@ TEST(Loco, RefusesBadInput) {
   o = LocoOptions{};
   o.v_max = 0;
   EXPECT_THROW(Loco{o}, std::invalid_argument);
+  // The constructor keeps the rules of the YAML declaration (it used to accept both of these).
+  o = LocoOptions{};
+  o.segments = 11;
+  EXPECT_THROW(loadParamsFromString<LocoOptions>("segments: 11", "yaml"), ParamError);
+  try {
+    Loco refused{o};
+    ADD_FAILURE() << "11 segments accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("segments"), std::string::npos) << e.what();
+  }
+  o = LocoOptions{};
+  o.escape_slack = 0.5;
+  EXPECT_THROW(Loco{o}, std::invalid_argument);
   EXPECT_NO_THROW(Loco{LocoOptions{}});
 
   const Loco loco{LocoOptions{}};

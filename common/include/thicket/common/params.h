@@ -182,6 +182,19 @@ std::string describeParams(const Options& options) {
   return detail::describe(&copy, [](void* o, Params& p) { static_cast<Options*>(o)->declare(p); });
 }
 
+/// Why `options`, built or changed in code, break a rule of their own declaration (a range, a
+/// choice, a finite number): the rules loading from YAML enforces, checked in the one place they
+/// are written. Empty when every field keeps them. For constructors, as Ceres's Options::IsValid.
+template <class Options>
+std::string paramsError(const Options& options) {
+  try {
+    (void)describeParams(options);
+  } catch (const std::logic_error& e) {
+    return e.what();
+  }
+  return {};
+}
+
 /// Every parameter of Options with its default (what `thicket-<module> params` prints).
 template <class Options>
 std::string describeParams() {
