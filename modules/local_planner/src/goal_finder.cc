@@ -19,11 +19,11 @@ void GoalFinderOptions::declare(Params& p) {
 
 GoalFinder::GoalFinder(GoalFinderOptions options, double free_distance)
     : options_(std::move(options)), free_distance_(free_distance) {
-  if (!(std::isfinite(options_.horizon) && options_.horizon > 0) ||
-      !(std::isfinite(options_.step) && options_.step > 0) || options_.max_steps < 0 ||
-      !(std::isfinite(free_distance_) && free_distance_ > 0) ||
-      (options_.method != "line" && options_.method != "gradient")) {
-    throw std::invalid_argument("GoalFinder: an option is out of range (see GoalFinderOptions)");
+  if (const std::string error = paramsError(options_); !error.empty()) {
+    throw std::invalid_argument("GoalFinder: " + error);
+  }
+  if (!(std::isfinite(free_distance_) && free_distance_ > 0)) {
+    throw std::invalid_argument("GoalFinder: the free distance must be positive and finite");
   }
 }
 

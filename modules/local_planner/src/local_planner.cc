@@ -115,18 +115,14 @@ LocalPlanner::LocalPlanner(LocalPlannerOptions options, std::function<double()> 
       now_ms_(now_ms ? std::move(now_ms) : [] { return 0.0; }),
       loco_(options_.loco),
       goal_finder_(options_.goal_finder, options_.loco.requiredClearance()) {
-  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
-  if (!positive(options_.goal_tolerance) ||
-      !(std::isfinite(options_.min_progress) && options_.min_progress >= 0) ||
-      !positive(options_.max_divergence) || !positive(options_.max_state_age) ||
-      !positive(options_.max_map_age) || !positive(options_.hover_duration) ||
-      !(options_.yaw_tolerance >= 0 && options_.yaw_tolerance <= M_PI) ||
-      options_.stall_cycles < 0 || !positive(options_.stall_distance) ||
-      !(options_.retreat >= 0 && options_.retreat <= 1) ||
-      !options_.flight_volume_min.allFinite() || !options_.flight_volume_max.allFinite() ||
+  // The rules of LocalPlannerOptions::declare (the loco and goal finder groups checked above),
+  // and the one it cannot state: a flight volume with its corners in order.
+  if (const std::string error = paramsError(options_); !error.empty()) {
+    throw std::invalid_argument("LocalPlanner: " + error);
+  }
+  if (!options_.flight_volume_min.allFinite() || !options_.flight_volume_max.allFinite() ||
       !(options_.flight_volume_min.array() < options_.flight_volume_max.array()).all()) {
-    throw std::invalid_argument(
-        "LocalPlanner: an option is out of range (see LocalPlannerOptions)");
+    throw std::invalid_argument("LocalPlanner: the flight volume's corners are not in order");
   }
 }
 

@@ -574,22 +574,11 @@ void TsdfIntegratorOptions::declare(Params& p) {
 }
 
 TsdfIntegrator::TsdfIntegrator(TsdfIntegratorOptions options) : options_(options) {
-  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
-  if (!positive(options_.truncation_voxels)) {
-    throw std::invalid_argument("TsdfIntegrator: truncation_voxels must be positive and finite");
-  }
-  if (!positive(options_.max_integration_range)) {
-    throw std::invalid_argument(
-        "TsdfIntegrator: max_integration_range must be positive and finite");
-  }
-  if (!positive(options_.max_weight)) {
-    throw std::invalid_argument("TsdfIntegrator: max_weight must be positive and finite");
-  }
-  if (!(std::isfinite(options_.new_surface_shadow) && options_.new_surface_shadow >= 0)) {
-    throw std::invalid_argument("TsdfIntegrator: new_surface_shadow must be finite and >= 0");
-  }
   if (options_.method != Method::kProjective && options_.method != Method::kRaycast) {
     throw std::invalid_argument("TsdfIntegrator: unknown method");
+  }
+  if (const std::string error = paramsError(options_); !error.empty()) {
+    throw std::invalid_argument("TsdfIntegrator: " + error);
   }
 }
 

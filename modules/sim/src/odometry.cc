@@ -18,9 +18,8 @@ void OdometryNoiseOptions::declare(Params& p) {
 
 OdometrySimulator::OdometrySimulator(OdometryNoiseOptions options)
     : options_(options), rng_(static_cast<uint64_t>(options.seed)) {
-  if (!(options_.position_noise >= 0) || !(options_.position_drift >= 0) ||
-      !(options_.yaw_drift >= 0)) {
-    throw std::invalid_argument("odometry noise parameters must be finite and non-negative");
+  if (const std::string error = paramsError(options_); !error.empty()) {
+    throw std::invalid_argument("odometry noise: " + error);
   }
 }
 

@@ -46,11 +46,11 @@ const char* outcomeName(Outcome outcome) {
 
 Vehicle::Vehicle(const GroundTruth& truth, VehicleOptions options, int64_t start_utime)
     : truth_(truth), options_(options), hold_position_(truth.world().start), utime_(start_utime) {
-  if (!(options_.replan_period > 0) || !(options_.sample_period > 0) ||
-      options_.sample_period > options_.replan_period || options_.replan_limit < 1 ||
-      !(options_.goal_tolerance > 0) || !(options_.max_start_lag >= 0) ||
-      !(options_.max_start_lead >= 0) || !(options_.max_yaw_rate > 0)) {
-    throw std::invalid_argument("VehicleOptions: periods, limits and tolerances must be positive");
+  if (const std::string error = paramsError(options_); !error.empty()) {
+    throw std::invalid_argument("VehicleOptions: " + error);
+  }
+  if (options_.sample_period > options_.replan_period) {
+    throw std::invalid_argument("VehicleOptions: sample_period exceeds replan_period");
   }
   const World& world = truth_.world();
   state_.utime = utime_;

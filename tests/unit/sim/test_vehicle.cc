@@ -192,6 +192,16 @@ TEST(VehicleOptions, RefusesNonsense) {
   options = {};
   options.sample_period = 2.0;
   EXPECT_THROW(Vehicle(truth, options), std::invalid_argument);
+  // The rules of its YAML declaration hold for options built in code too: a 2 s sample period
+  // within a 5 s replan period and a zero speed limit used to be accepted.
+  options = {};
+  options.replan_period = 5.0;
+  options.sample_period = 2.0;
+  EXPECT_THROW(Vehicle(truth, options), std::invalid_argument);
+  options = {};
+  options.v_max = 0;
+  EXPECT_THROW(Vehicle(truth, options), std::invalid_argument);
+  EXPECT_NO_THROW(Vehicle(truth, VehicleOptions{}));
 }
 
 }  // namespace
