@@ -148,77 +148,6 @@ class RandomSelector final : public GoalSelector {
   ExplorerOptions options_;
 };
 
-class LocalExplorationSelector final : public GoalSelector {
- public:
-  explicit LocalExplorationSelector(const ExplorerOptions& options) : options_(options) {}
-  const char* name() const override { return "local_exploration"; }
-  void prepare(double voxel_size) override { gains_.forVoxelSize(voxel_size); }
-
-  Proposal select(const ExplorationRequest& request, const MapView& maps) override {
-    Rng rng(mixSeed(options_.seed, request.cycle));
-    Proposal proposal;
-    if (std::bernoulli_distribution(options_.p_goal)(rng)) {
-      proposal.found = true;
-      proposal.waypoints = {request.goal};
-      proposal.reason = "the global goal (drawn with probability P_g)";
-      return proposal;
-    }
-    if (maps.tsdf == nullptr || maps.esdf == nullptr) {
-      proposal.reason = "no map";
-      proposal.map_missing = true;
-      return proposal;
-    }
-    const ExplorationGain& gain = gains_.forVoxelSize(maps.tsdf->voxelSize());
-    const double d_g = (request.goal - request.start).norm() + options_.radius;
-    const std::optional<double> line_clearance =
-        options_.reachable ? detail::treeClearance(options_, *maps.esdf, request.start)
-                           : std::nullopt;
-    double best = -std::numeric_limits<double>::infinity();
-    int candidates = 0;
-    for (int draw = 0; draw < options_.max_draws && candidates < options_.candidates; ++draw) {
-      const auto x = drawInBall(rng, request.start, options_.radius, options_, 1);
-      if (!x || !detail::observedFree(options_, maps, *x)) continue;
-      if (line_clearance &&
-          !detail::esdfSegmentFree(options_, *maps.esdf, request.start, *x, *line_clearance,
-                                   0.5 * maps.esdf->voxelSize())) {
-        continue;
-      }
-      ++candidates;
-      // Face away from the start, then look: the gain is that of the view the vehicle will have.
-      const Eigen::Vector3d away = *x - request.start;
-      const double yaw = std::atan2(away.y(), away.x());
-      const Gain g =
-          gain.unknownFraction(*maps.tsdf, ExplorationGain::cameraAt(*x, yaw), options_.subsample);
-      ++proposal.gain_evaluations;
-      const double score = options_.w_e * g.unknown_fraction +
-                           options_.w_g * (d_g - (request.goal - *x).norm()) / d_g;
-      if (score > best) {
-        best = score;
-        proposal.found = true;
-        proposal.waypoints = {*x};
-        proposal.yaws = {yaw};
-        proposal.score = score;
-      }
-    }
-    char text[160];
-    if (proposal.found) {
-      std::snprintf(text, sizeof(text), "best of %d observed free candidates, score %.3f",
-                    candidates, best);
-    } else {
-      std::snprintf(text, sizeof(text),
-                    "no observed free point%s within %.1f m of the start in %d draws",
-                    line_clearance ? " reachable in a straight line" : "", options_.radius,
-                    options_.max_draws);
-    }
-    proposal.reason = text;
-    return proposal;
-  }
-
- private:
-  ExplorerOptions options_;
-  detail::GainCache gains_{options_.gain};
-};
-
 }  // namespace
 
 namespace detail {
@@ -277,21 +206,10 @@ bool observedFree(const ExplorerOptions& o, const MapView& maps, const Eigen::Ve
 
 namespace {
 
-bool frontierMemoryOptionsValid(const FrontierMemoryOptions& f) {
-  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
-  const auto nonNegative = [](double x) { return std::isfinite(x) && x >= 0; };
-  return positive(f.radius) && f.grid >= 0.05 && f.grid <= 5 && positive(f.cluster_size) &&
-         f.min_frontier >= 1 && nonNegative(f.climb) && nonNegative(f.w_goal) &&
-         nonNegative(f.w_climb) && nonNegative(f.comfort) && nonNegative(f.w_comfort) &&
-         nonNegative(f.w_altitude) && nonNegative(f.w_size) && nonNegative(f.hysteresis) &&
-         f.climb_look >= 0 && f.climb_look <= 1 && positive(f.progress) && f.tabu_attempts >= 1 &&
-         positive(f.tabu_radius) && f.radius / f.grid <= 200;
-}
-
 std::unique_ptr<GoalSelector> makeStrategy(const ExplorerOptions& o) {
   if (o.strategy == "none") return std::make_unique<NoneSelector>();
   if (o.strategy == "random") return std::make_unique<RandomSelector>(o);
-  if (o.strategy == "local_exploration") return std::make_unique<LocalExplorationSelector>(o);
+  if (o.strategy == "local_exploration") return detail::makeLocalExploration(o);
   if (o.strategy == "rrt_star_optimistic") return detail::makeRrtStar(o, /*optimistic=*/true);
   if (o.strategy == "rrt_star_conservative") return detail::makeRrtStar(o, /*optimistic=*/false);
   if (o.strategy == "nbvp") return detail::makeNbvp(o);
@@ -313,23 +231,19 @@ const std::vector<std::string>& strategyNames() {
 }
 
 std::unique_ptr<GoalSelector> makeGoalSelector(const ExplorerOptions& o) {
-  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
-  if (!positive(o.radius) || o.candidates < 1 || o.subsample < 1 || !(o.w_e >= 0) ||
-      !(o.w_g >= 0) || !(o.p_goal >= 0 && o.p_goal <= 1) || !positive(o.min_clearance) ||
-      o.max_draws < 1 || !o.flight_volume_min.allFinite() || !o.flight_volume_max.allFinite() ||
-      !(o.flight_volume_min.array() < o.flight_volume_max.array()).all() ||
-      o.rrt_star.iterations < 1 || !positive(o.rrt_star.range) ||
-      !(o.rrt_star.goal_bias >= 0 && o.rrt_star.goal_bias <= 1) ||
-      !positive(o.rrt_star.goal_tolerance) || !positive(o.rrt_star.check_step) ||
-      !(o.rrt_star.box_margin >= 0) || !std::isfinite(o.rrt_star.box_margin) ||
-      o.nbvp.initial_nodes < 1 || o.nbvp.max_nodes < o.nbvp.initial_nodes ||
-      !positive(o.nbvp.range) || !(o.nbvp.lambda >= 0) || !std::isfinite(o.nbvp.lambda) ||
-      !(o.nbvp.zero_gain >= 0) || !std::isfinite(o.nbvp.zero_gain) ||
-      !positive(o.nbvp.check_step) || !positive(o.look_around.radius) ||
-      o.look_around.headings < 1 || o.look_around.subsample < 1 ||
-      !(o.look_around.min_gain >= 0 && o.look_around.min_gain <= 1) ||
-      !frontierMemoryOptionsValid(o.frontier_memory)) {
-    throw std::invalid_argument("explorer: an option is out of range (see ExplorerOptions)");
+  // The rules of ExplorerOptions::declare, and those between fields it cannot state.
+  if (const std::string error = paramsError(o); !error.empty()) {
+    throw std::invalid_argument("explorer: " + error);
+  }
+  if (!(o.flight_volume_min.array() < o.flight_volume_max.array()).all()) {
+    throw std::invalid_argument("explorer: the flight volume's corners are not in order");
+  }
+  if (o.nbvp.max_nodes < o.nbvp.initial_nodes) {
+    throw std::invalid_argument("explorer: nbvp.max_nodes is below nbvp.initial_nodes");
+  }
+  if (o.frontier_memory.radius / o.frontier_memory.grid > 200) {
+    throw std::invalid_argument(
+        "explorer: frontier_memory.radius spans more than 200 cells of frontier_memory.grid");
   }
   if (o.look_around.enabled && !o.fixed_yaw) {
     throw std::invalid_argument("explorer: look_around needs fixed_yaw (a look is a yaw)");

@@ -32,6 +32,9 @@ class GainCache {
 std::unique_ptr<GoalSelector> makeRrtStar(const ExplorerOptions& options, bool optimistic);
 /// nbvp; nbvp.cc.
 std::unique_ptr<GoalSelector> makeNbvp(const ExplorerOptions& options);
+
+/// local_exploration, the paper's strategy; local_exploration.cc.
+std::unique_ptr<GoalSelector> makeLocalExploration(const ExplorerOptions& options);
 /// frontier_memory; frontier_memory.cc.
 std::unique_ptr<GoalSelector> makeFrontierMemory(const ExplorerOptions& options);
 

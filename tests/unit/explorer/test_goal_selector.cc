@@ -244,6 +244,17 @@ TEST(GoalSelector, RefusesUnknownStrategiesAndBadOptions) {
   o.look_around.headings = 8;
   o.look_around.subsample = 0;
   EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
+  // The rules of the YAML declaration hold for options built in code (these were accepted).
+  o = optionsFor("random");
+  o.look_around.headings = 400;
+  EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
+  o = optionsFor("random");
+  o.rrt_star.iterations = 2'000'000;
+  EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
+  o = optionsFor("random");
+  o.nbvp.initial_nodes = 20;
+  o.nbvp.max_nodes = 10;  // a rule between two fields, kept by hand
+  EXPECT_THROW(makeGoalSelector(o), std::invalid_argument);
 }
 
 // prepare only builds tables ahead of time: a prepared selector answers as one that is not.
