@@ -9,10 +9,12 @@
 #include <string>
 #include <unordered_map>
 
+#include "monotone_queue.h"
+
 namespace thicket::mapper {
 namespace {
 
-// A voxel's class (the low bits of Node::state); see the header.
+// A voxel's class (the low bits of BlockNode::state); see the header.
 enum : uint8_t { kUnknown = 0, kFree = 1, kInside = 2, kSurface = 3, kOccupied = 4 };
 constexpr uint8_t kClassMask = 7;
 // Set while the voxel is in the running call's touched list.
@@ -99,9 +101,9 @@ void forEachInDifference(const Span& a, const Span& b, F&& f) {
 }
 
 // The integrator's side of one ESDF block: each voxel's class, value and shortest-path parent.
-struct Node {
+struct BlockNode {
   // none: the stand-in for blocks that are not allocated.
-  Node(const BlockIndex& block_index, Node* none) : index(block_index) {
+  BlockNode(const BlockIndex& block_index, BlockNode* none) : index(block_index) {
     neighbours.fill(none);
     neighbours[13] = this;
     parent.fill(kNoParent);
@@ -110,7 +112,7 @@ struct Node {
   uint32_t id = 0;  // the integrator's short name for the node
   // The 3x3x3 blocks around this one, x fastest; cached so that neighbour lookups across block
   // faces need no hashing. Missing blocks are the integrator's empty stand-in, all unknown.
-  std::array<Node*, 27> neighbours;
+  std::array<BlockNode*, 27> neighbours;
   int known = 0;        // voxels that are not unknown; the ESDF block exists exactly when known > 0
   int propagating = 0;  // free and inside voxels
   uint64_t changed_in_call = 0;
@@ -128,7 +130,7 @@ struct Classified {
 
 // Whether a free or inside voxel may be among the neighbours of voxel lin: false skips the scan
 // of sites deep in unobserved space, which the moving occupied sphere creates and removes.
-inline bool nearPropagating(const Node* node, int lin) {
+inline bool nearPropagating(const BlockNode* node, int lin) {
   if (node->propagating > 0) return true;
   const int x = lin & 15;
   const int y = (lin >> 4) & 15;
@@ -137,7 +139,7 @@ inline bool nearPropagating(const Node* node, int lin) {
       static_cast<unsigned>(z - 1) < 14u) {
     return false;
   }
-  for (const Node* other : node->neighbours) {
+  for (const BlockNode* other : node->neighbours) {
     if (other->propagating > 0) return true;
   }
   return false;
@@ -146,7 +148,7 @@ inline bool nearPropagating(const Node* node, int lin) {
 // Calls f(direction, node, linear index) for each neighbour (in the empty stand-in if its block is
 // not allocated).
 template <class F>
-inline void forEachNeighbour(Node* node, int lin, F&& f) {
+inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
   const int x = lin & 15;
   const int y = (lin >> 4) & 15;
   const int z = lin >> 8;
@@ -155,7 +157,7 @@ inline void forEachNeighbour(Node* node, int lin, F&& f) {
     for (int d = 0; d < 26; ++d) f(d, node, lin + kNeighbours.linear[d]);
     return;
   }
-  // Per axis and offset -1, 0, 1: the neighbouring block's slot in Node::neighbours and the
+  // Per axis and offset -1, 0, 1: the neighbouring block's slot in BlockNode::neighbours and the
   // coordinate in it, both scaled by the axis' stride. (n + 16) >> 4 maps -1, 0..15, 16 to 0, 1, 2.
   int slot[3][3];
   int local[3][3];
@@ -183,64 +185,6 @@ inline void forEachNeighbour(Node* node, int lin, F&& f) {
     }
   }
 }
-
-// A monotone min-queue of 32-bit keys with 32-bit payloads (a radix heap): exact, for Dijkstra's
-// algorithm, where no key pushed is below the last one popped. A key waits in the bucket of the
-// highest bit in which it differs from the last key popped (bucket 0: equal to it); when bucket 0
-// runs empty, the lowest non-empty bucket is spread over the lower ones, around its minimum.
-// Equal keys leave last in, first out: deterministic.
-class MonotoneQueue {
- public:
-  bool empty() const { return size_ == 0; }
-
-  void clear() {
-    for (std::vector<uint64_t>& b : buckets_) b.clear();
-    nonempty_ = 0;
-    size_ = 0;
-    last_ = 0;
-  }
-
-  void push(uint32_t key, uint32_t payload) {
-    insert(uint64_t{key} << 32 | payload);
-    ++size_;
-  }
-
-  // The payload of an entry with the smallest key, and that key.
-  uint32_t pop(uint32_t& key) {
-    if (buckets_[0].empty()) {
-      const int i = std::countr_zero(nonempty_ & ~uint64_t{1});
-      std::vector<uint64_t>& from = buckets_[i];
-      nonempty_ &= ~(uint64_t{1} << i);
-      last_ = min_[i];
-      for (const uint64_t e : from) insert(e);
-      from.clear();
-    }
-    const uint64_t e = buckets_[0].back();
-    buckets_[0].pop_back();
-    if (buckets_[0].empty()) nonempty_ &= ~uint64_t{1};
-    --size_;
-    key = static_cast<uint32_t>(e >> 32);
-    return static_cast<uint32_t>(e);
-  }
-
- private:
-  int bucket(uint32_t key) const { return 32 - std::countl_zero(key ^ last_); }
-
-  void insert(uint64_t e) {
-    const uint32_t key = static_cast<uint32_t>(e >> 32);
-    const int b = bucket(key);
-    const uint64_t bit = uint64_t{1} << b;
-    min_[b] = (nonempty_ & bit) ? std::min(min_[b], key) : key;
-    nonempty_ |= bit;
-    buckets_[b].push_back(e);
-  }
-
-  std::array<std::vector<uint64_t>, 33> buckets_;
-  std::array<uint32_t, 33> min_{};  // the smallest key in each non-empty bucket
-  uint64_t nonempty_ = 0;           // bit b: bucket b holds entries
-  uint32_t last_ = 0;
-  size_t size_ = 0;
-};
 
 constexpr int kLast = kVoxelsPerSide - 1;
 constexpr float kNoSite = std::numeric_limits<float>::infinity();
@@ -335,7 +279,7 @@ class EsdfIntegrator::Impl {
     position_ = position;
     for (const BlockIndex& b : blocks) {
       const TsdfStar star(tsdf, b);
-      Node* node = find(b);
+      BlockNode* node = find(b);
       // Without either, every voxel was unknown and stays so, except where the occupied sphere
       // arrived, which sphereDifference handles.
       if (star.centre() != nullptr || node != nullptr) {
@@ -352,7 +296,7 @@ class EsdfIntegrator::Impl {
         if (neighbour.centre() == nullptr) continue;  // unobserved there: nothing depends on b
         VoxelIndex lo(0, 0, 0), hi(kLast, kLast, kLast);
         lo[axis] = hi[axis] = face % 2 ? 0 : kLast;
-        Node* neighbour_node = find(n);
+        BlockNode* neighbour_node = find(n);
         classifyVoxels(n, neighbour, neighbour_node, lo, hi);
       }
     }
@@ -405,13 +349,13 @@ class EsdfIntegrator::Impl {
 
  private:
   struct Touched {
-    Node* node;
+    BlockNode* node;
     int lin;
     uint8_t cls;  // before the call
     float value;  // before the call
   };
   struct VoxelRef {
-    Node* node;
+    BlockNode* node;
     int lin;
     uint8_t raise;  // kRaiseFree | kRaiseInside | kReevaluate
   };
@@ -437,17 +381,17 @@ class EsdfIntegrator::Impl {
     changed_nodes_.clear();
   }
 
-  Node* find(const BlockIndex& b) const {
+  BlockNode* find(const BlockIndex& b) const {
     const auto it = nodes_.find(b);
     return it == nodes_.end() ? nullptr : it->second.get();
   }
 
-  Node* allocate(const BlockIndex& b) {
-    auto owned = std::make_unique<Node>(b, none_.get());
-    Node* node = owned.get();
+  BlockNode* allocate(const BlockIndex& b) {
+    auto owned = std::make_unique<BlockNode>(b, none_.get());
+    BlockNode* node = owned.get();
     for (int i = 0; i < 27; ++i) {
       if (i == 13) continue;
-      Node* other = find(b + BlockIndex(i % 3 - 1, i / 3 % 3 - 1, i / 9 - 1));
+      BlockNode* other = find(b + BlockIndex(i % 3 - 1, i / 3 % 3 - 1, i / 9 - 1));
       if (other == nullptr) continue;
       node->neighbours[i] = other;
       other->neighbours[26 - i] = node;
@@ -469,7 +413,7 @@ class EsdfIntegrator::Impl {
     return node;
   }
 
-  void erase(Node* node) {
+  void erase(BlockNode* node) {
     for (int i = 0; i < 27; ++i) {
       if (i != 13 && node->neighbours[i] != none_.get()) {
         node->neighbours[i]->neighbours[26 - i] = none_.get();
@@ -550,8 +494,8 @@ class EsdfIntegrator::Impl {
           // sum means one side is stretched (a slant) or truncated, and which is unknown, so the
           // crossing is taken midway rather than interpolated toward the smaller value.
           const float sum = magnitude + std::abs(n->distance);
-          site = std::min(site, sum > voxel_size_f_ ? 0.5f * voxel_size_f_
-                                                    : voxel_size_f_ * magnitude / sum);
+          site = std::min(
+              site, sum > voxel_size_f_ ? 0.5f * voxel_size_f_ : voxel_size_f_ * magnitude / sum);
         }
       }
       if (site != kNoSite) return {kSurface, std::copysign(std::min(site, max_), d)};
@@ -568,17 +512,17 @@ class EsdfIntegrator::Impl {
   }
 
   // Whether voxel lin already has class c (a site: and its value). Propagated values do not count.
-  static bool unchanged(const Node* node, int lin, const Classified& c) {
+  static bool unchanged(const BlockNode* node, int lin, const Classified& c) {
     const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
     return old == c.cls && (!isSite(old) || std::bit_cast<uint32_t>(node->value[lin]) ==
                                                 std::bit_cast<uint32_t>(c.value));
   }
 
   // Records the voxel's state before the call, once.
-  void touch(Node* node, int lin) {
+  void touch(BlockNode* node, int lin) {
     if (!(node->state[lin] & kTouched)) record(node, lin);
   }
-  void record(Node* node, int lin) {
+  void record(BlockNode* node, int lin) {
     uint8_t& state = node->state[lin];
     touched_.push_back({node, lin, static_cast<uint8_t>(state & kClassMask), node->value[lin]});
     state |= kTouched;
@@ -587,7 +531,7 @@ class EsdfIntegrator::Impl {
   // Gives voxel lin of block b (node: nullptr if not allocated yet) its new class c, not the one it
   // has. It drops its parent and raises the children that the change can lengthen; sites become
   // seeds of the lower wavefront, free and inside voxels look for a new parent.
-  void reclassify(Node*& node, const BlockIndex& b, int lin, const Classified& c) {
+  void reclassify(BlockNode*& node, const BlockIndex& b, int lin, const Classified& c) {
     const uint8_t cls = c.cls;
     const float value = c.value;
     const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
@@ -619,8 +563,8 @@ class EsdfIntegrator::Impl {
 
   // Classifies the voxels lo..hi (local coordinates, inclusive) of block b (node: nullptr if not
   // allocated yet), reclassifying those whose class changed.
-  void classifyVoxels(const BlockIndex& b, const TsdfStar& star, Node* node, const VoxelIndex& lo,
-                      const VoxelIndex& hi) {
+  void classifyVoxels(const BlockIndex& b, const TsdfStar& star, BlockNode* node,
+                      const VoxelIndex& lo, const VoxelIndex& hi) {
     const VoxelIndex origin = b * kVoxelsPerSide;
     const Span whole{origin.x(), origin.x() + kVoxelsPerSide - 1};
     // Blocks clear of a sphere's surface by a voxel take their spans without asking rowSpan.
@@ -708,17 +652,17 @@ class EsdfIntegrator::Impl {
 
   // Queues a free or inside voxel with its value. Values are never negative, so their bits order
   // them as the floats do.
-  void push(float value, Node* node, int lin) {
+  void push(float value, BlockNode* node, int lin) {
     queue_.push(std::bit_cast<uint32_t>(value), node->id << 12 | static_cast<uint32_t>(lin));
   }
 
   // Offers a free or inside voxel a path of length `candidate` (not negative) through the
   // neighbour in direction `dir` (seen from the voxel). Only sites can have negative values, so
   // only paths from a site need clamping at 0 first.
-  [[gnu::always_inline]] void offer(Node* node, int lin, float candidate, int dir) {
+  [[gnu::always_inline]] void offer(BlockNode* node, int lin, float candidate, int dir) {
     if (candidate < node->value[lin]) lower(node, lin, candidate, dir);
   }
-  void lower(Node* node, int lin, float candidate, int dir) {
+  void lower(BlockNode* node, int lin, float candidate, int dir) {
     touch(node, lin);
     node->value[lin] = candidate;
     node->parent[lin] = static_cast<uint8_t>(dir);
@@ -727,7 +671,7 @@ class EsdfIntegrator::Impl {
 
   // Invalidates child n of raised voxel r, in direction d from r, or re-evaluates it from r's
   // value as a source (`source`).
-  void raiseChild(const VoxelRef& r, int d, Node* n, int l, float source) {
+  void raiseChild(const VoxelRef& r, int d, BlockNode* n, int l, float source) {
     float value = max_;
     if (r.raise & kReevaluate) {
       value = std::min(max_, std::max(0.0f, source + edge_[d]));
@@ -756,7 +700,7 @@ class EsdfIntegrator::Impl {
       if (!nearPropagating(r.node, r.lin)) continue;
       const float from_value = r.node->value[r.lin];
       if (isSite(r.node->state[r.lin] & kClassMask)) {
-        forEachNeighbour(r.node, r.lin, [&](int d, Node* n, int l) {
+        forEachNeighbour(r.node, r.lin, [&](int d, BlockNode* n, int l) {
           const uint8_t cls = n->state[l] & kClassMask;
           if (!propagates(cls)) return;
           const float source = cls == kInside ? -from_value : from_value;
@@ -768,7 +712,7 @@ class EsdfIntegrator::Impl {
         });
       } else {
         // Only free and inside voxels have parents, and a child is on its parent's side.
-        forEachNeighbour(r.node, r.lin, [&](int d, Node* n, int l) {
+        forEachNeighbour(r.node, r.lin, [&](int d, BlockNode* n, int l) {
           if (n->parent[l] == 25 - d) raiseChild(r, d, n, l, from_value);
         });
       }
@@ -777,7 +721,7 @@ class EsdfIntegrator::Impl {
     for (const VoxelRef& s : seeds_) {
       if (!nearPropagating(s.node, s.lin)) continue;
       const float v = s.node->value[s.lin];
-      forEachNeighbour(s.node, s.lin, [&](int d, Node* n, int l) {
+      forEachNeighbour(s.node, s.lin, [&](int d, BlockNode* n, int l) {
         const uint8_t cls = n->state[l] & kClassMask;
         if (cls == kFree) {
           offer(n, l, std::max(0.0f, v + edge_[d]), 25 - d);
@@ -793,7 +737,7 @@ class EsdfIntegrator::Impl {
         const uint8_t cls = t.node->state[t.lin] & kClassMask;
         float best = t.node->value[t.lin];
         int best_dir = -1;
-        forEachNeighbour(t.node, t.lin, [&](int d, Node* n, int l) {
+        forEachNeighbour(t.node, t.lin, [&](int d, BlockNode* n, int l) {
           const uint8_t other = n->state[l] & kClassMask;
           float candidate;
           if (other == cls) {
@@ -820,11 +764,11 @@ class EsdfIntegrator::Impl {
       uint32_t key;
       const uint32_t voxel = queue_.pop(key);
       const float value = std::bit_cast<float>(key);
-      Node* node = by_id_[voxel >> 12];
+      BlockNode* node = by_id_[voxel >> 12];
       const int lin = static_cast<int>(voxel & 4095);
       if (node->value[lin] != value) continue;  // lowered again since
       const uint8_t cls = node->state[lin] & kClassMask;
-      forEachNeighbour(node, lin, [&](int d, Node* n, int l) {
+      forEachNeighbour(node, lin, [&](int d, BlockNode* n, int l) {
         if ((n->state[l] & kClassMask) == cls) offer(n, l, value + edge_[d], 25 - d);
       });
     }
@@ -861,7 +805,7 @@ class EsdfIntegrator::Impl {
         changed_nodes_.push_back(t.node);
       }
     }
-    for (Node* node : changed_nodes_) {
+    for (BlockNode* node : changed_nodes_) {
       if (node->known == 0) {
         esdf.removeBlock(node->index);
         result.removed_blocks.push_back(node->index);
@@ -876,7 +820,7 @@ class EsdfIntegrator::Impl {
         t.node->out->voxels[t.lin] = esdfVoxel(t.node->state[t.lin], t.node->value[t.lin]);
       }
     }
-    for (Node* node : changed_nodes_) {
+    for (BlockNode* node : changed_nodes_) {
       if (node->known == 0) erase(node);
     }
     touched_.clear();
@@ -900,10 +844,10 @@ class EsdfIntegrator::Impl {
   Eigen::Vector3d initial_ = Eigen::Vector3d::Zero();
   bool built_ = false;  // nodes_ hold the state of the last call's result
   Eigen::Vector3d position_ = Eigen::Vector3d::Zero();
-  std::unordered_map<BlockIndex, std::unique_ptr<Node>, IndexHash> nodes_;
-  const std::unique_ptr<Node> none_ = std::make_unique<Node>(BlockIndex::Zero(), nullptr);
+  std::unordered_map<BlockIndex, std::unique_ptr<BlockNode>, IndexHash> nodes_;
+  const std::unique_ptr<BlockNode> none_ = std::make_unique<BlockNode>(BlockIndex::Zero(), nullptr);
   // Nodes by id (queue entries name them so), and the ids of erased nodes for reuse.
-  std::vector<Node*> by_id_;
+  std::vector<BlockNode*> by_id_;
   std::vector<uint32_t> free_ids_;
 
   // Per-call work lists, kept to reuse their memory.
@@ -913,8 +857,8 @@ class EsdfIntegrator::Impl {
   std::vector<VoxelRef> seeds_;
   std::vector<VoxelRef> tentative_;
   MonotoneQueue queue_;
-  std::vector<Node*> changed_nodes_;
-  std::vector<Node*> row_nodes_;
+  std::vector<BlockNode*> changed_nodes_;
+  std::vector<BlockNode*> row_nodes_;
   std::vector<const TsdfLayer::BlockType*> row_tsdf_;
 };
 
