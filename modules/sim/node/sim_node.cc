@@ -22,7 +22,8 @@ void SimOptions::declare(Params& p) {
   p("worlds_dir", worlds_dir, "where scenario names are looked up; empty: config/worlds");
   p.choice("sensor", sensor, {"depth", "stereo"}, "publish CAMERA_DEPTH or STEREO");
   p("lockstep", lockstep, "wait for the planner's final status of each frame before stepping");
-  p("rate", rate, "cycles per wall-clock second without lockstep [Hz]", Range::positive());
+  p("rate", rate, "cycles per wall-clock second without lockstep [Hz]",
+    Range::between(0.001, 1000));
   p("lockstep_timeout", lockstep_timeout,
     "wall-clock seconds without any final planner status in lockstep before aborting [s]",
     Range::positive());

@@ -229,6 +229,14 @@ TEST(SimNode, StepsOnWithoutAnAnswerAndResendsTheGoalToAPlannerWithoutOne) {
   EXPECT_EQ(goals.size(), 2u);
 }
 
+// The executable turns rate into a timer period in whole microseconds: a rate whose period does
+// not fit (1e6 / 1e-300) is refused when the options load, never cast.
+TEST(SimOptions, ARateWhosePeriodCannotBeATimerIsRefused) {
+  EXPECT_THROW(loadParamsFromString<SimOptions>("rate: 1e-300", "sim.yaml"), ParamError);
+  EXPECT_THROW(loadParamsFromString<SimOptions>("rate: 1e9", "sim.yaml"), ParamError);
+  EXPECT_EQ(loadParamsFromString<SimOptions>("rate: 4", "sim.yaml").rate, 4.0);
+}
+
 TEST(SimNode, RefusedTrajectoriesAreReportedAndTheVehicleHolds) {
   lcm::LCM lcm("memq://");
   Loop loop(lcm);
