@@ -57,11 +57,7 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperNodeOptions& options, int64_t 
                                   : std::string("its voxel size is not the mapper's"));
     }
   }
-  if (!restored_utime_ && !options_.load_map.empty()) {
-    auto saved = loadMap(options_.load_map);
-    if (!saved) throw std::runtime_error(saved.error());
-    mapper_.restore(*saved);
-  }
+  if (!restored_utime_) loadConfiguredMap();
   // Depth frames come in bursts when a log replays; poses at 20-200 Hz.
   subscribe<depth_image_t>(
       options_.depth_channel,
@@ -77,6 +73,13 @@ MapperNode::MapperNode(lcm::LCM& lcm, const MapperNodeOptions& options, int64_t 
   }
 }
 
+void MapperNode::loadConfiguredMap() {
+  if (options_.load_map.empty()) return;
+  auto saved = loadMap(options_.load_map);
+  if (!saved) throw std::runtime_error(saved.error());
+  mapper_.restore(*saved);
+}
+
 bool MapperNode::dropStaleCheckpoint(int64_t utime) {
   if (!restored_utime_ || utime < 0 || utime > kMaxUtime) return false;  // (refused later)
   const int64_t checkpoint = *restored_utime_;
@@ -84,20 +87,22 @@ bool MapperNode::dropStaleCheckpoint(int64_t utime) {
   if (utime >= checkpoint && utime - checkpoint <= secondsToUtime(options_.checkpoint_max_age)) {
     return false;
   }
-  // Another flight's map: start empty, as a mapper without the checkpoint would have.
+  // Another flight's map: start as a mapper without the checkpoint would have (load_map, or empty).
   mapper_ = Mapper(options_.mapper, now_ms_);
+  loadConfiguredMap();
   const std::string reason = "checkpoint dropped: the first message (" + std::to_string(utime) +
                              " us) is not within checkpoint_max_age after it (" +
                              std::to_string(checkpoint) +
-                             " us), so it is another flight's; starting an empty map";
+                             " us), so it is another flight's; starting without it";
   std::fprintf(stderr, "[mapper] %s\n", reason.c_str());
   publishStatus(utime, mapper_status_t::RESULT_RESTORED, reason);
   return true;
 }
 
 void MapperNode::checkpointIfDue(int64_t utime) {
+  // Due a period after the last one, or at once when the clock went back (a new timeline).
   if (options_.checkpoint.empty() ||
-      (checkpoint_utime_ &&
+      (checkpoint_utime_ && utime >= *checkpoint_utime_ &&
        utime - *checkpoint_utime_ < secondsToUtime(options_.checkpoint_period))) {
     return;
   }

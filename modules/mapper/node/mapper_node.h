@@ -71,6 +71,8 @@ class MapperNode : public Node {
   // another flight. Returns whether it did.
   bool dropStaleCheckpoint(int64_t utime);
   void checkpointIfDue(int64_t utime);
+  // Restores options' load_map, if set; throws std::runtime_error when it cannot be read.
+  void loadConfiguredMap();
   template <class Voxel>
   void publishLayer(const std::string& channel, const Layer<Voxel>& layer, int64_t utime,
                     int64_t revision, bool full_snapshot, const std::vector<BlockIndex>& changed,

@@ -450,6 +450,25 @@ TEST(MapperNode, ARestartedMapperContinuesItsCheckpoint) {
     ASSERT_NE(dropped, nullptr);
     EXPECT_NE(dropped->reason.find("checkpoint dropped"), std::string::npos) << dropped->reason;
   }
+  // ... and with a map to load, it starts from that map, as it would without the checkpoint.
+  saveMap(path, *saved);
+  SavedMap earlier = *saved;
+  earlier.revision = 2;
+  const std::string load = path + ".load";
+  saveMap(load, earlier);
+  MapperNodeOptions loading = options;
+  loading.load_map = load;
+  {
+    lcm::LCM lcm4("memq://");
+    Loop loop4(lcm4);
+    MapperNode next(lcm4, loading, 42);
+    Node sensors4("sensors", lcm4);
+    sensors4.publish("STATE_ESTIMATE", poseMsg(100'000, bodyAt(0)));
+    sensors4.publish("CAMERA_DEPTH", frameAt(renderer, 0, 100'000));
+    loop4.drain();
+    EXPECT_EQ(next.mapper().revision(), 3);  // load_map's revision 2, then this frame
+  }
+  std::remove(load.c_str());
   std::remove(path.c_str());
 }
 
