@@ -164,18 +164,12 @@ void GainOptions::declare(Params& p) {
 ExplorationGain::ExplorationGain(GainOptions options, double voxel_size)
     : options_(options), voxel_size_(voxel_size) {
   const GainOptions& o = options_;
-  if (o.width < 1 || o.height < 1) {
-    throw std::invalid_argument("ExplorationGain: the image size must be positive");
+  // The rules of GainOptions::declare, and the one between two fields it cannot state.
+  if (const std::string error = paramsError(o); !error.empty()) {
+    throw std::invalid_argument("ExplorationGain: " + error);
   }
-  if (!(std::isfinite(o.hfov_deg) && o.hfov_deg > 0 && o.hfov_deg < 180)) {
-    throw std::invalid_argument("ExplorationGain: hfov_deg must be in (0, 180)");
-  }
-  if (!(std::isfinite(o.min_range) && o.min_range >= 0 && std::isfinite(o.max_range) &&
-        o.max_range > o.min_range)) {
-    throw std::invalid_argument("ExplorationGain: need finite 0 <= min_range < max_range");
-  }
-  if (!finitePositive(o.min_weight)) {
-    throw std::invalid_argument("ExplorationGain: min_weight must be positive and finite");
+  if (!(o.max_range > o.min_range)) {
+    throw std::invalid_argument("ExplorationGain: max_range must exceed min_range");
   }
   if (!finitePositive(voxel_size_)) {
     throw std::invalid_argument("ExplorationGain: the voxel size must be positive and finite");

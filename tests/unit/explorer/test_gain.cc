@@ -389,6 +389,7 @@ TEST(ExplorationGain, RefusesBadInput) {
   refused([&](GainOptions& o) { o.hfov_deg = nan; });
   refused([](GainOptions& o) { o.hfov_deg = 0; });
   refused([](GainOptions& o) { o.hfov_deg = 180; });
+  refused([](GainOptions& o) { o.hfov_deg = 0.5; });  // its YAML's [1, 179]; it used to pass
   refused([](GainOptions& o) { o.min_range = o.max_range; });
   refused([](GainOptions& o) { o.min_range = 6; });
   refused([](GainOptions& o) { o.min_range = -1; });
