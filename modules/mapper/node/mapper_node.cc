@@ -108,7 +108,7 @@ void MapperNode::checkpointIfDue(int64_t utime) {
   }
   checkpoint_utime_ = utime;
   try {
-    saveMap(options_.checkpoint, mapper_.saved(map_id_));
+    saveMap(options_.checkpoint, mapper_.tsdf(), mapper_.esdf(), mapper_.stamp(map_id_));
   } catch (const std::runtime_error& e) {
     std::fprintf(stderr, "[mapper] checkpoint not written: %s\n", e.what());
   }
@@ -244,7 +244,7 @@ void MapperNode::publishStatus(int64_t utime, int8_t result, const std::string& 
 
 std::string MapperNode::saveIfConfigured() const {
   if (options_.save_map.empty()) return "";
-  saveMap(options_.save_map, mapper_.saved(map_id_));
+  saveMap(options_.save_map, mapper_.tsdf(), mapper_.esdf(), mapper_.stamp(map_id_));
   return options_.save_map;
 }
 

@@ -41,9 +41,9 @@ uint64_t getLittleEndian(const uint8_t* in, int bytes) {
 }
 
 template <class Voxel>
-void writeLayer(std::ofstream& out, const Layer<Voxel>& layer, const SavedMap& map) {
+void writeLayer(std::ofstream& out, const Layer<Voxel>& layer, const MapStamp& stamp) {
   for (const map_update_t& part :
-       encodeMapUpdate(layer, {map.utime, map.map_id, map.revision, true}, {}, {})) {
+       encodeMapUpdate(layer, {stamp.utime, stamp.map_id, stamp.revision, true}, {}, {})) {
     std::vector<uint8_t> bytes(part.getEncodedSize());
     part.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
     putLittleEndian(out, bytes.size(), 4);
@@ -63,23 +63,24 @@ std::string applyRecord(MapMirror<Voxel>& mirror, const map_update_t& msg) {
 
 }  // namespace
 
-void saveMap(const std::string& path, const SavedMap& map) {
+void saveMap(const std::string& path, const TsdfLayer& tsdf, const EsdfLayer& esdf,
+             const MapStamp& stamp) {
   const std::string temporary = path + ".part";
   {
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
     if (!out) throw std::runtime_error("cannot write " + temporary);
     out << kMagic << ' ' << kMapFileVersion << " start";
-    if (map.start) {
+    if (stamp.start) {
       char text[96];
-      std::snprintf(text, sizeof(text), " %.17g %.17g %.17g", map.start->x(), map.start->y(),
-                    map.start->z());
+      std::snprintf(text, sizeof(text), " %.17g %.17g %.17g", stamp.start->x(), stamp.start->y(),
+                    stamp.start->z());
       out << text;
     } else {
       out << " none";
     }
     out << '\n';
-    writeLayer(out, map.tsdf, map);
-    writeLayer(out, map.esdf, map);
+    writeLayer(out, tsdf, stamp);
+    writeLayer(out, esdf, stamp);
     out.close();
     if (!out) throw std::runtime_error("writing " + temporary + " failed");
   }

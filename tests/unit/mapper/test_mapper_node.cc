@@ -313,7 +313,7 @@ TEST_F(MapperNodeTest, SavedMapsAreContinuedByTheNextRun) {
     EXPECT_EQ(empty->revision, 0);
     EXPECT_EQ(empty->tsdf.numBlocks(), 0u);
   }
-  saveMap(path, SavedMap{mapper.mapper().tsdf(), mapper.mapper().esdf(), 42, 3, 2'000'000, {}});
+  saveMap(path, mapper.mapper().tsdf(), mapper.mapper().esdf(), {42, 3, 2'000'000, {}});
 
   MapperNodeOptions loading = nodeOptions();
   loading.map_id = 43;

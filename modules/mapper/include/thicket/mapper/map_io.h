@@ -17,9 +17,8 @@ namespace thicket::mapper {
 /// The version written by saveMap; loadMap reads it and version 1 (which had no start position).
 constexpr int kMapFileVersion = 2;
 
-struct SavedMap {
-  TsdfLayer tsdf{1.0};
-  EsdfLayer esdf{1.0};
+/// What a map file says besides its layers.
+struct MapStamp {
   int64_t map_id = 0;
   int64_t revision = 0;
   int64_t utime = 0;  ///< the newest integrated frame [µs]
@@ -28,13 +27,22 @@ struct SavedMap {
   std::optional<Eigen::Vector3d> start;
 };
 
+struct SavedMap : MapStamp {
+  TsdfLayer tsdf{1.0};
+  EsdfLayer esdf{1.0};
+};
+
 /// Writes "THICKET-MAP <version> start <x> <y> <z>\n" ("start none" without one), then both layers
 /// as full-snapshot map_update_t messages, each preceded by its length (uint32) and a 64-bit FNV-1a
 /// checksum of it (little-endian): the wire format's validation applies to files too. The file is
 /// replaced atomically: written beside it, synced, then renamed over it, so that a crash leaves the
 /// old file or the new one, never a torn one. Throws std::runtime_error when the file cannot be
 /// written.
-void saveMap(const std::string& path, const SavedMap& map);
+void saveMap(const std::string& path, const TsdfLayer& tsdf, const EsdfLayer& esdf,
+             const MapStamp& stamp);
+inline void saveMap(const std::string& path, const SavedMap& map) {
+  saveMap(path, map.tsdf, map.esdf, map);
+}
 
 /// Reads a file written by saveMap. Refuses, with the reason, a missing or unreadable file,
 /// another format or version, a truncated or corrupt record, and a file without both layers.

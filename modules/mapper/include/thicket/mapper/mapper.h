@@ -101,8 +101,8 @@ class Mapper {
   /// The start of the flight (the first accepted pose, or a restored map's): the centre of the
   /// ESDF's clear sphere.
   const std::optional<Eigen::Vector3d>& start() const { return start_; }
-  /// The map as saveMap writes it.
-  SavedMap saved(int64_t map_id) const { return {tsdf_, esdf_, map_id, revision_, utime_, start_}; }
+  /// What saveMap writes beside the layers, for a map known as `map_id`.
+  MapStamp stamp(int64_t map_id) const { return {map_id, revision_, utime_, start_}; }
   size_t pendingFrames() const { return pending_.size(); }
   int64_t framesRefused() const { return frames_refused_; }
 
