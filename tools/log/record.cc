@@ -4,10 +4,9 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <cstring>
-
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <regex>
 
@@ -94,9 +93,10 @@ int record(const RecordOptions& options) {
     std::fprintf(stderr, "thicket-log: %s\n", path.error().c_str());
     return 2;
   }
-  // What cannot start leaves no empty log behind (a forced OUT was not created here).
+  // What cannot start leaves no empty log behind (a forced OUT was not created here; --force and
+  // --increment exclude each other).
   const auto unclaim = [&] {
-    if (!options.force || options.increment) std::remove(path->c_str());
+    if (!options.force) std::remove(path->c_str());
   };
   lcm::LCM lcm(options.lcm_url);
   if (!lcm.good()) {

@@ -1,8 +1,7 @@
 #include "thicket/explorer/goal_selector.h"
 
+#include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <limits>
 #include <random>
 #include <stdexcept>
 
