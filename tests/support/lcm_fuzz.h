@@ -110,6 +110,22 @@ inline const std::vector<uint32_t>& hostileCounts() {
   return counts;
 }
 
+/// `count` pairs of messages that no type decodes as `sample`'s: random bytes (up to 300), and
+/// random bytes behind `sample`'s fingerprint.
+inline std::vector<Bytes> junkMessages(const Bytes& sample, int count, std::mt19937& random) {
+  std::vector<Bytes> all;
+  for (int i = 0; i < count; ++i) {
+    Bytes junk(random() % 300);
+    for (uint8_t& b : junk) b = static_cast<uint8_t>(random());
+    all.push_back(junk);
+    Bytes behind(sample.begin(), sample.begin() + 8);  // a valid fingerprint, then junk
+    behind.resize(8 + random() % 300);
+    for (size_t b = 8; b < behind.size(); ++b) behind[b] = static_cast<uint8_t>(random());
+    all.push_back(behind);
+  }
+  return all;
+}
+
 /// Every kind of hostile message for the type "package.type", `random_count` of each random kind.
 inline std::vector<Bytes> hostileMessages(const std::string& name, int random_count,
                                           uint32_t seed) {
@@ -137,15 +153,7 @@ inline std::vector<Bytes> hostileMessages(const std::string& name, int random_co
     all.push_back(sampleBytes(name, integer, 0.5));
   }
   std::mt19937 random(seed);
-  for (int i = 0; i < random_count; ++i) {
-    Bytes junk(random() % 300);
-    for (uint8_t& b : junk) b = static_cast<uint8_t>(random());
-    all.push_back(junk);
-    Bytes behind(sample.begin(), sample.begin() + 8);  // a valid fingerprint, then junk
-    behind.resize(8 + random() % 300);
-    for (size_t b = 8; b < behind.size(); ++b) behind[b] = static_cast<uint8_t>(random());
-    all.push_back(behind);
-  }
+  for (Bytes& junk : junkMessages(sample, random_count, random)) all.push_back(std::move(junk));
   return all;
 }
 

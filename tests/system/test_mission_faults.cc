@@ -8,13 +8,13 @@
 // - Hostile messages: while the vehicle flies, every channel a module subscribes to carries
 //   random bytes, junk behind the channel type's fingerprint and truncated messages (none of
 //   which decodes); the mission must still end at the goal, every module refusing them.
-#include <sched.h>
 #include <signal.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <random>
 #include <regex>
 #include <string>
@@ -33,23 +33,9 @@ namespace {
 
 using thicket::procman::test_support::ChildProcess;
 using thicket::procman::test_support::DescendantReaper;
+using thicket::procman::test_support::isolatedUrl;
 using thicket::procman::test_support::readFile;
-
-// A large receive buffer, as scripts/demo sets: a respawned mirror's snapshot comes in a burst.
-const char* const kUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608";
-
-bool privateNetwork() {
-  return ::unshare(CLONE_NEWNET) == 0 &&
-         std::system(
-             "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo "
-             "> /dev/null 2>&1") == 0;
-}
-
-void replaceAll(std::string& text, const std::string& from, const std::string& to) {
-  for (size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
-    text.replace(at, from.size(), to);
-  }
-}
+using thicket::procman::test_support::replaceAll;
 
 // config/sim.pmd with its programs and parameter files made absolute, the parameter files copied
 // to `dir` (the mapper's checkpoint and saved map there too) and the log written there; in real
@@ -86,17 +72,6 @@ int findProgram(const std::string& program) {
   return -1;
 }
 
-// The sheriff's exit and the log both say that the mission ended at the goal without a collision
-// (thicket-log mission exits 0 only then).
-void expectGoalReached(const ChildProcess& sheriff, const std::string& dir) {
-  const std::string output = sheriff.output();
-  EXPECT_EQ(sheriff.exitCode(), 0) << output;
-  EXPECT_NE(output.find("thicket-sim: goal reached"), std::string::npos) << output;
-  ChildProcess mission({THICKET_LOG, "mission", dir + "/mission.lcm.00"});
-  ASSERT_TRUE(mission.waitExit(60));
-  EXPECT_EQ(mission.exitCode(), 0) << mission.output();
-}
-
 // A fresh folder for one mission's files.
 std::string missionDir(const std::string& name) {
   const std::string dir =
@@ -106,6 +81,44 @@ std::string missionDir(const std::string& name) {
   return dir;
 }
 
+// One mission of the sheet on a bus of its own (a private network namespace, else a port of its
+// own), with the large receive buffer scripts/demo sets: a respawned mirror's snapshot comes in a
+// burst. Subscribe on `lcm`, then fly().
+struct Mission {
+  Mission(const std::string& name, bool lockstep)
+      : url(isolatedUrl() + "&recv_buf_size=8388608"),
+        dir(missionDir(name)),
+        sheet(missionSheet(dir, lockstep)),
+        lcm(url) {
+    ::setenv("LCM_DEFAULT_URL", url.c_str(), 1);  // every program the sheet starts
+  }
+  // The files stay for a look when the test failed.
+  ~Mission() {
+    sheriff.reset();
+    if (!::testing::Test::HasFailure()) std::filesystem::remove_all(dir);
+  }
+
+  void fly() {
+    sheriff.emplace(std::vector<std::string>{THICKET_SHERIFF, "-l", "--exit-after-script",
+                                             "--wait-timeout", "240", "--status-period", "600",
+                                             sheet, "fly"});
+  }
+  // The sheriff's exit and the log both say that the mission ended at the goal without a
+  // collision (thicket-log mission exits 0 only then).
+  void expectGoalReached() const {
+    const std::string output = sheriff->output();
+    EXPECT_EQ(sheriff->exitCode(), 0) << output;
+    EXPECT_NE(output.find("thicket-sim: goal reached"), std::string::npos) << output;
+    ChildProcess mission({THICKET_LOG, "mission", dir + "/mission.lcm.00"});
+    ASSERT_TRUE(mission.waitExit(60));
+    EXPECT_EQ(mission.exitCode(), 0) << mission.output();
+  }
+
+  const std::string url, dir, sheet;
+  lcm::LCM lcm;
+  std::optional<ChildProcess> sheriff;
+};
+
 struct Heard {
   int final_statuses = 0;
   std::vector<std::string> restored;  // MAPPER_STATUS RESULT_RESTORED reasons
@@ -113,12 +126,9 @@ struct Heard {
 
 void killEachModuleMidMission(bool lockstep) {
   const DescendantReaper reaper;
-  if (!privateNetwork()) GTEST_SKIP() << "no private network namespace here (needs root)";
-  ::setenv("LCM_DEFAULT_URL", kUrl, 1);
-  const std::string dir = missionDir(lockstep ? "kill_lockstep" : "kill_realtime");
-  const std::string sheet = missionSheet(dir, lockstep);
-
-  lcm::LCM lcm(kUrl);
+  Mission mission(lockstep ? "kill_lockstep" : "kill_realtime", lockstep);
+  const std::string& dir = mission.dir;
+  lcm::LCM& lcm = mission.lcm;
   ASSERT_TRUE(lcm.good());
   Heard heard;
   lcm.subscribeFunction(
@@ -142,8 +152,8 @@ void killEachModuleMidMission(bool lockstep) {
       },
       &heard);
 
-  ChildProcess sheriff({THICKET_SHERIFF, "-l", "--exit-after-script", "--wait-timeout", "240",
-                        "--status-period", "600", sheet, "fly"});
+  mission.fly();
+  ChildProcess& sheriff = *mission.sheriff;
   // Each module is killed once the planner has closed a few more cycles since the last kill.
   const std::vector<std::string> victims = {"thicket-mapper", "thicket-vio-bridge",
                                             "thicket-local-planner", "thicket-explorer"};
@@ -167,7 +177,7 @@ void killEachModuleMidMission(bool lockstep) {
   }
   EXPECT_EQ(killed.size(), victims.size()) << "the mission ended before every module was killed";
   while (!sheriff.waitExit(0.05)) lcm.handleTimeout(50);
-  expectGoalReached(sheriff, dir);
+  mission.expectGoalReached();
   const std::string output = sheriff.output();
 
   // Every module was killed once and came back; the simulator ended at the goal.
@@ -196,7 +206,6 @@ void killEachModuleMidMission(bool lockstep) {
   }
   EXPECT_EQ(missing, 0u) << "of " << before->tsdf.numBlocks() << " blocks";
   EXPECT_FALSE(std::filesystem::exists(checkpoint)) << "a clean stop removes the checkpoint";
-  std::filesystem::remove_all(dir);
 }
 
 TEST(MissionFaults, EachModuleKilledOnceInLockstepTheMissionStillEndsAtTheGoal) {
@@ -223,47 +232,36 @@ const std::vector<std::pair<std::string, std::string>> kInputs = {
 
 TEST(MissionFaults, AMissionUnderHostileMessagesStillEndsAtTheGoal) {
   const DescendantReaper reaper;
-  if (!privateNetwork()) GTEST_SKIP() << "no private network namespace here (needs root)";
-  ::setenv("LCM_DEFAULT_URL", kUrl, 1);
-  const std::string dir = missionDir("fuzzed");
-  const std::string sheet = missionSheet(dir, true);
-  lcm::LCM lcm(kUrl);
-  ASSERT_TRUE(lcm.good());
-  ChildProcess sheriff({THICKET_SHERIFF, "-l", "--exit-after-script", "--wait-timeout", "240",
-                        "--status-period", "600", sheet, "fly"});
+  Mission mission("fuzzed", true);
+  ASSERT_TRUE(mission.lcm.good());
+  mission.fly();
   // Each round: on every channel, random bytes, junk behind the type's fingerprint, and a
   // truncation of a valid message (a message that decodes would be obeyed: the bus is trusted).
   std::mt19937 random(7);
   std::vector<thicket::fuzz::Bytes> samples;
   for (const auto& [channel, type] : kInputs) samples.push_back(thicket::fuzz::sampleBytes(type));
   int rounds = 0;
-  while (!sheriff.waitExit(0)) {
+  while (!mission.sheriff->waitExit(0)) {
     for (size_t c = 0; c < kInputs.size(); ++c) {
       const thicket::fuzz::Bytes& sample = samples[c];
-      thicket::fuzz::Bytes junk(random() % 300);
-      for (uint8_t& b : junk) b = static_cast<uint8_t>(random());
-      thicket::fuzz::Bytes behind(sample.begin(), sample.begin() + 8);
-      behind.resize(8 + random() % 300);
-      for (size_t b = 8; b < behind.size(); ++b) behind[b] = static_cast<uint8_t>(random());
-      const thicket::fuzz::Bytes cut(sample.begin(),
-                                     sample.begin() + static_cast<long>(random() % sample.size()));
-      for (const thicket::fuzz::Bytes* bytes :
-           std::initializer_list<const thicket::fuzz::Bytes*>{&junk, &behind, &cut}) {
-        lcm.publish(kInputs[c].first, bytes->data(), static_cast<unsigned>(bytes->size()));
+      std::vector<thicket::fuzz::Bytes> messages = thicket::fuzz::junkMessages(sample, 1, random);
+      messages.emplace_back(sample.begin(),
+                            sample.begin() + static_cast<long>(random() % sample.size()));
+      for (const thicket::fuzz::Bytes& bytes : messages) {
+        mission.lcm.publish(kInputs[c].first, bytes.data(), static_cast<unsigned>(bytes.size()));
       }
     }
     ++rounds;
-    lcm.handleTimeout(20);
+    mission.lcm.handleTimeout(20);
   }
   EXPECT_GT(rounds, 100);
-  expectGoalReached(sheriff, dir);
+  mission.expectGoalReached();
   // Every module refused some (each prints its first refusals with the channel).
-  const std::string output = sheriff.output();
+  const std::string output = mission.sheriff->output();
   for (const char* module : {"[vio_bridge]", "[mapper]", "[planner]", "[explorer]", "[sim]"}) {
     const std::regex refused(std::string("\\") + module + ".*refused message");
     EXPECT_TRUE(std::regex_search(output, refused)) << module << "\n" << output.substr(0, 6000);
   }
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

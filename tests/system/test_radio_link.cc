@@ -149,15 +149,10 @@ TEST(RadioLink, TheVehicleBusKeepsTalkingThroughALinkOutage) {
 std::string vehicleSheet(const std::string& log_stem) {
   std::string sheet =
       thicket::procman::test_support::readFile(THICKET_SOURCE_DIR "/config/vehicle.pmd");
-  const auto replaceAll = [&sheet](const std::string& from, const std::string& to) {
-    for (size_t at = sheet.find(from); at != std::string::npos;
-         at = sheet.find(from, at + to.size())) {
-      sheet.replace(at, from.size(), to);
-    }
-  };
-  replaceAll("\"build/", std::string("\"") + THICKET_BINARY_DIR + "/");
-  replaceAll(" config/", std::string(" ") + THICKET_SOURCE_DIR + "/config/");
-  replaceAll("logs/vehicle.lcm", log_stem);
+  using thicket::procman::test_support::replaceAll;
+  replaceAll(sheet, "\"build/", std::string("\"") + THICKET_BINARY_DIR + "/");
+  replaceAll(sheet, " config/", std::string(" ") + THICKET_SOURCE_DIR + "/config/");
+  replaceAll(sheet, "logs/vehicle.lcm", log_stem);
   const std::string path = ::testing::TempDir() + "/vehicle_" + std::to_string(::getpid()) + ".pmd";
   std::ofstream(path) << sheet;
   return path;

@@ -50,6 +50,13 @@ inline int64_t wallMicros() {
       .count();
 }
 
+/// `text` with every `from` replaced by `to`.
+inline void replaceAll(std::string& text, const std::string& from, const std::string& to) {
+  for (size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
+    text.replace(at, from.size(), to);
+  }
+}
+
 /// A whole file, or empty when it cannot be read.
 inline std::string readFile(const std::string& path) {
   std::ifstream in(path);
