@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <exception>
 
+#include "thicket/common/cli.h"
+
 namespace thicket {
 
 std::string defaultLcmUrl() {
@@ -11,39 +13,18 @@ std::string defaultLcmUrl() {
   return (env != nullptr && env[0] != '\0') ? std::string(env) : std::string(kLoopbackLcmUrl);
 }
 
-Expected<NodeArgs> parseNodeArgs(int argc, const char* const* argv) {
-  NodeArgs args;
-  args.lcm_url = defaultLcmUrl();
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    std::string* target = nullptr;
-    std::string flag = arg;
-    std::string value;
-    bool has_value = false;
-    if (const size_t eq = arg.find('='); arg.rfind("--", 0) == 0 && eq != std::string::npos) {
-      flag = arg.substr(0, eq);
-      value = arg.substr(eq + 1);
-      has_value = true;
-    }
-    if (flag == "--lcm-url") {
-      target = &args.lcm_url;
-    } else if (flag == "--config") {
-      target = &args.config_path;
-    } else if (arg == "-h" || arg == "--help") {
-      args.help = true;
-      continue;
-    } else {
-      args.options.push_back(arg);
-      continue;
-    }
-    if (!has_value) {
-      if (i + 1 >= argc) return unexpected(flag + " needs a value");
-      value = argv[++i];
-    }
-    if (value.empty()) return unexpected(flag + " needs a non-empty value");
-    *target = value;
-  }
-  return args;
+std::optional<int> parseNodeArgs(int argc, const char* const* argv, const std::string& program,
+                                 const std::string& usage, NodeArgs& args,
+                                 const std::function<void(CLI::App&)>& extend) {
+  CLI::App app(usage, program);
+  cli::addNodeFlags(app, args);
+  const CLI::App* params =
+      app.add_subcommand("params", "print every option of --config with its default and meaning");
+  if (extend) extend(app);
+  app.require_subcommand(0, 1);
+  if (auto exit_code = cli::parse(app, argc, argv)) return exit_code;
+  args.params = params->parsed();
+  return std::nullopt;
 }
 
 int runNode(const std::string& program, const std::string& lcm_url,
@@ -62,14 +43,6 @@ int runNode(const std::string& program, const std::string& lcm_url,
 int failNode(const std::string& program, const std::string& message) {
   std::fprintf(stderr, "%s: %s\n", program.c_str(), message.c_str());
   return 2;
-}
-
-std::string commonNodeFlagsHelp() {
-  return "  --lcm-url URL   LCM URL (default: $LCM_DEFAULT_URL, else " +
-         std::string(kLoopbackLcmUrl) +
-         ")\n"
-         "  --config FILE   parameter file (YAML)\n"
-         "  -h, --help      this help\n";
 }
 
 }  // namespace thicket

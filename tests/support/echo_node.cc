@@ -36,18 +36,16 @@ class EchoNode : public thicket::Node {
 }  // namespace
 
 int main(int argc, char** argv) {
-  auto args = thicket::parseNodeArgs(argc, argv);
-  if (!args || args->help || !args->options.empty()) {
-    std::fprintf(stderr, "usage: %s [flags]\n%s%s\n", argv[0],
-                 thicket::commonNodeFlagsHelp().c_str(), args ? "" : args.error().c_str());
-    return 2;
+  thicket::NodeArgs args;
+  if (auto exit_code = thicket::parseNodeArgs(argc, argv, "echo", "a test node", args)) {
+    return *exit_code;
   }
-  lcm::LCM lcm(args->lcm_url);
+  lcm::LCM lcm(args.lcm_url);
   thicket::Loop::installSignalHandlers();
   try {
     thicket::Loop loop(lcm);
     EchoNode node(lcm);
-    std::printf("echo: ready on %s\n", args->lcm_url.c_str());
+    std::printf("echo: ready on %s\n", args.lcm_url.c_str());
     std::fflush(stdout);
     const int signal = loop.run();
     std::printf("echo: stopped by signal %d after %d pings and %d images, %lld refused\n", signal,

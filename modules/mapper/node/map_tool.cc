@@ -6,12 +6,13 @@
 //   thicket-map info   MAP
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "thicket/common/cli.h"
 #include "thicket/common/esdf_query.h"
+#include "thicket/common/node_main.h"
 #include "thicket/mapper/map_io.h"
 #include "thicket/mapper/mapper.h"
 #include "thicket/sim/ground_truth.h"
@@ -22,73 +23,49 @@ namespace {
 
 using thicket::mapper::SavedMap;
 
-constexpr const char* kUsage =
-    "usage: thicket-map build  --scenario S --density D --seed N --views K [--voxel V]\n"
-    "                          [--worlds-dir DIR] --out MAP\n"
-    "       thicket-map query  MAP x,y,z [x,y,z ...]\n"
-    "       thicket-map export MAP [--ply mesh.ply] [--pcd occupied.pcd]\n"
-    "       thicket-map info   MAP\n";
-
 int fail(const std::string& message) {
-  std::fprintf(stderr, "thicket-map: %s\n", message.c_str());
-  return 2;
+  return thicket::failNode("thicket-map", message);
 }
 
-// "--key value" pairs; anything else is an error.
-thicket::Expected<std::map<std::string, std::string>> parseFlags(
-    const std::vector<std::string>& args) {
-  std::map<std::string, std::string> flags;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (args[i].rfind("--", 0) != 0)
-      return thicket::unexpected("unexpected argument '" + args[i] + "'");
-    if (i + 1 >= args.size()) return thicket::unexpected(args[i] + " needs a value");
-    flags[args[i]] = args[i + 1];
-    ++i;
-  }
-  return flags;
+struct BuildArgs {
+  std::string scenario, out;
+  std::string worlds_dir = std::string(THICKET_SOURCE_DIR) + "/config/worlds";
+  double density = 0;
+  double voxel = 0.2;
+  int64_t seed = 0;
+  int views = 0;
+};
+
+void addBuildFlags(CLI::App& build, BuildArgs& args) {
+  using thicket::cli::nonEmpty;
+  build.add_option("--scenario", args.scenario, "paper, eth, forest50 or a scenario .yaml")
+      ->required()
+      ->check(nonEmpty());
+  build.add_option("--density", args.density, "trees per m^2 of the obstacle region")
+      ->required()
+      ->check(thicket::cli::number(0));
+  thicket::cli::addSeed(build, args.seed)->required();
+  build
+      .add_option("--views", args.views,
+                  "depth images integrated, one per metre from the start towards the goal")
+      ->required()
+      ->check(thicket::cli::integer(1, 100000));
+  build.add_option("--voxel", args.voxel, "voxel size [m]")
+      ->check(thicket::cli::number(0.01, 10))
+      ->capture_default_str();
+  build.add_option("--worlds-dir", args.worlds_dir, "where scenario names are looked up")
+      ->check(nonEmpty());
+  build.add_option("--out", args.out, "the map file to write")->required()->check(nonEmpty());
 }
 
-thicket::Expected<double> number(const std::string& text, const std::string& what) {
-  try {
-    size_t used = 0;
-    const double value = std::stod(text, &used);
-    if (used == text.size() && std::isfinite(value)) return value;
-  } catch (const std::exception&) {
-  }
-  return thicket::unexpected(what + " '" + text + "' is not a number");
-}
-
-int build(const std::vector<std::string>& args) {
-  auto flags = parseFlags(args);
-  if (!flags) return fail(flags.error());
-  for (const auto& [key, value] : *flags) {
-    if (key != "--scenario" && key != "--density" && key != "--seed" && key != "--views" &&
-        key != "--voxel" && key != "--worlds-dir" && key != "--out") {
-      return fail("unknown option " + key);
-    }
-  }
-  for (const char* required : {"--scenario", "--density", "--seed", "--views", "--out"}) {
-    if (!flags->count(required)) return fail(std::string("build needs ") + required);
-  }
-  auto density = number(flags->at("--density"), "--density");
-  auto seed = number(flags->at("--seed"), "--seed");
-  auto views = number(flags->at("--views"), "--views");
-  auto voxel = number(flags->count("--voxel") ? flags->at("--voxel") : "0.2", "--voxel");
-  for (const auto* value : {&density, &seed, &views, &voxel}) {
-    if (!*value) return fail(value->error());
-  }
-  if (*views < 1 || *views != std::floor(*views)) return fail("--views must be a positive integer");
-  if (*seed < 0 || *seed != std::floor(*seed)) return fail("--seed must be a non-negative integer");
-  const std::string worlds_dir = flags->count("--worlds-dir")
-                                     ? flags->at("--worlds-dir")
-                                     : std::string(THICKET_SOURCE_DIR) + "/config/worlds";
-  auto spec = thicket::sim::loadScenario(flags->at("--scenario"), worlds_dir);
+int build(const BuildArgs& args) {
+  auto spec = thicket::sim::loadScenario(args.scenario, args.worlds_dir);
   if (!spec) return fail(spec.error());
-  auto world = thicket::sim::generateWorld(*spec, *density, static_cast<uint64_t>(*seed));
+  auto world = thicket::sim::generateWorld(*spec, args.density, static_cast<uint64_t>(args.seed));
   if (!world) return fail(world.error());
 
   thicket::mapper::MapperOptions options;
-  options.voxel_size = *voxel;
+  options.voxel_size = args.voxel;
   try {
     thicket::mapper::Mapper mapper(options);
     const thicket::sim::DepthRenderer renderer(*world, thicket::sim::DepthCameraOptions{});
@@ -96,7 +73,7 @@ int build(const std::vector<std::string>& args) {
     const Eigen::Vector3d direction = (world->goal - world->start).normalized();
     const double yaw = std::atan2(direction.y(), direction.x());
     int integrated = 0;
-    for (int k = 0; k < static_cast<int>(*views); ++k) {
+    for (int k = 0; k < args.views; ++k) {
       const Eigen::Vector3d position = world->start + k * direction;
       if (truth.distance(position) < world->robot_radius) {
         std::printf(
@@ -125,61 +102,57 @@ int build(const std::vector<std::string>& args) {
     saved.map_id = 1;
     saved.revision = mapper.revision();
     saved.utime = mapper.utime();
-    thicket::mapper::saveMap(flags->at("--out"), saved);
+    thicket::mapper::saveMap(args.out, saved);
     std::printf("integrated %d of %d views at %.3f m voxels: %zu TSDF and %zu ESDF blocks -> %s\n",
-                integrated, static_cast<int>(*views), *voxel, saved.tsdf.numBlocks(),
-                saved.esdf.numBlocks(), flags->at("--out").c_str());
+                integrated, args.views, args.voxel, saved.tsdf.numBlocks(), saved.esdf.numBlocks(),
+                args.out.c_str());
   } catch (const std::exception& e) {
     return fail(e.what());
   }
   return 0;
 }
 
-thicket::Expected<SavedMap> load(const std::vector<std::string>& args) {
-  if (args.empty()) return thicket::unexpected("which map? (a MAP file written by build)");
-  return thicket::mapper::loadMap(args[0]);
-}
-
-int query(const std::vector<std::string>& args) {
-  auto map = load(args);
-  if (!map) return fail(map.error());
-  if (args.size() < 2) return fail("query needs points x,y,z");
-  for (size_t i = 1; i < args.size(); ++i) {
-    std::stringstream text(args[i]);
+int query(const std::string& path, const std::vector<std::string>& points) {
+  std::vector<Eigen::Vector3d> queries;
+  for (const std::string& point : points) {
+    std::stringstream text(point);
     std::vector<double> xyz;
     for (std::string part; std::getline(text, part, ',');) {
-      auto value = number(part, "coordinate");
-      if (!value) return fail(value.error() + " in '" + args[i] + "'");
-      xyz.push_back(*value);
+      std::string item = part;
+      if (const std::string error = thicket::cli::number()(item); !error.empty()) {
+        return fail("'" + point + "': a coordinate " + error);
+      }
+      xyz.push_back(std::stod(item));
     }
-    if (xyz.size() != 3) return fail("'" + args[i] + "' is not x,y,z");
-    const thicket::EsdfSample sample = thicket::sampleEsdf(map->esdf, {xyz[0], xyz[1], xyz[2]});
+    if (xyz.size() != 3) return fail("'" + point + "' is not x,y,z");
+    queries.emplace_back(xyz[0], xyz[1], xyz[2]);
+  }
+  auto map = thicket::mapper::loadMap(path);
+  if (!map) return fail(map.error());
+  for (const Eigen::Vector3d& xyz : queries) {
+    const thicket::EsdfSample sample = thicket::sampleEsdf(map->esdf, xyz);
     if (sample.known) {
-      std::printf("%g,%g,%g: distance %.3f m, observed\n", xyz[0], xyz[1], xyz[2], sample.distance);
+      std::printf("%g,%g,%g: distance %.3f m, observed\n", xyz.x(), xyz.y(), xyz.z(),
+                  sample.distance);
     } else {
-      std::printf("%g,%g,%g: unknown\n", xyz[0], xyz[1], xyz[2]);
+      std::printf("%g,%g,%g: unknown\n", xyz.x(), xyz.y(), xyz.z());
     }
   }
   return 0;
 }
 
-int exportMap(const std::vector<std::string>& args) {
-  auto map = load(args);
+int exportMap(const std::string& path, const std::string& ply, const std::string& pcd) {
+  if (ply.empty() && pcd.empty()) return fail("export needs --ply and/or --pcd");
+  auto map = thicket::mapper::loadMap(path);
   if (!map) return fail(map.error());
-  auto flags = parseFlags({args.begin() + 1, args.end()});
-  if (!flags) return fail(flags.error());
-  if (flags->empty()) return fail("export needs --ply and/or --pcd");
   try {
-    for (const auto& [key, path] : *flags) {
-      if (key == "--ply") {
-        std::printf("%zu triangles -> %s\n", thicket::mapper::exportMeshPly(map->tsdf, path),
-                    path.c_str());
-      } else if (key == "--pcd") {
-        std::printf("%zu occupied voxels -> %s\n",
-                    thicket::mapper::exportOccupiedPcd(map->tsdf, path), path.c_str());
-      } else {
-        return fail("unknown option " + key);
-      }
+    if (!ply.empty()) {
+      std::printf("%zu triangles -> %s\n", thicket::mapper::exportMeshPly(map->tsdf, ply),
+                  ply.c_str());
+    }
+    if (!pcd.empty()) {
+      std::printf("%zu occupied voxels -> %s\n", thicket::mapper::exportOccupiedPcd(map->tsdf, pcd),
+                  pcd.c_str());
     }
   } catch (const std::exception& e) {
     return fail(e.what());
@@ -187,10 +160,9 @@ int exportMap(const std::vector<std::string>& args) {
   return 0;
 }
 
-int info(const std::vector<std::string>& args) {
-  auto map = load(args);
+int info(const std::string& path) {
+  auto map = thicket::mapper::loadMap(path);
   if (!map) return fail(map.error());
-  if (args.size() > 1) return fail("info takes only the map");
   Eigen::Vector3i lo = Eigen::Vector3i::Constant(INT32_MAX),
                   hi = Eigen::Vector3i::Constant(INT32_MIN);
   for (const thicket::BlockIndex& b : map->tsdf.blockIndices()) {
@@ -217,19 +189,38 @@ int info(const std::vector<std::string>& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::fprintf(stderr, "%s", kUsage);
-    return 2;
-  }
-  const std::string command = argv[1];
-  const std::vector<std::string> args(argv + 2, argv + argc);
-  if (command == "build") return build(args);
-  if (command == "query") return query(args);
-  if (command == "export") return exportMap(args);
-  if (command == "info") return info(args);
-  if (command == "-h" || command == "--help") {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  return fail("unknown command '" + command + "'\n" + kUsage);
+  CLI::App app("thicket-map: offline map building and inspection, for people debugging maps.",
+               "thicket-map");
+  app.require_subcommand(1);
+  CLI::App* build_command = app.add_subcommand(
+      "build", "integrate simulated depth views of a generated world into a map file");
+  BuildArgs build_args;
+  addBuildFlags(*build_command, build_args);
+
+  std::string map_path;
+  const auto addMap = [&](CLI::App& command) {
+    command.add_option("MAP", map_path, "a map file written by build or by the mapper")
+        ->required()
+        ->check(thicket::cli::nonEmpty());
+  };
+  CLI::App* query_command =
+      app.add_subcommand("query", "the ESDF's distance at points (unknown where unobserved)");
+  addMap(*query_command);
+  std::vector<std::string> points;
+  query_command->add_option("POINTS", points, "points x,y,z [m]")->required();
+  CLI::App* export_command = app.add_subcommand("export", "the map as a mesh and/or a cloud");
+  addMap(*export_command);
+  std::string ply, pcd;
+  export_command->add_option("--ply", ply, "the TSDF's surface mesh (PLY)")
+      ->check(thicket::cli::nonEmpty());
+  export_command->add_option("--pcd", pcd, "the occupied voxels' centres (PCD)")
+      ->check(thicket::cli::nonEmpty());
+  CLI::App* info_command = app.add_subcommand("info", "what a map holds");
+  addMap(*info_command);
+
+  if (auto exit_code = thicket::cli::parse(app, argc, argv)) return *exit_code;
+  if (*build_command) return build(build_args);
+  if (*query_command) return query(map_path, points);
+  if (*export_command) return exportMap(map_path, ply, pcd);
+  return info(map_path);
 }

@@ -11,11 +11,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <map>
-#include <sstream>
+#include <optional>
 
 #include "png.h"
 #include "sim_node.h"
+#include "thicket/common/cli.h"
 #include "thicket/common/loop.h"
 #include "thicket/common/node_main.h"
 #include "thicket/common/time.h"
@@ -24,82 +24,41 @@ namespace {
 
 using thicket::sim::SimOptions;
 
-constexpr const char* kUsage =
-    "usage: thicket-sim world  --scenario S --density D --seed N --json\n"
-    "       thicket-sim render --scenario S --density D --seed N --pose x,y,z,yaw --out D.png\n"
-    "                          [--left L.png --right R.png --calib C.yaml]\n"
-    "       thicket-sim run    [--config sim.yaml] [--lockstep] [--scenario S] [--density D]\n"
-    "                          [--seed N]\n"
-    "       thicket-sim params (the options of --config with defaults and documentation)\n"
-    "options of every command:\n"
-    "  --worlds-dir DIR  where scenario names are looked up (default: config/worlds)\n";
+constexpr const char* kProgram = "thicket-sim";
 
 int fail(const std::string& message) {
-  std::fprintf(stderr, "thicket-sim: %s\n", message.c_str());
-  return 2;
+  return thicket::failNode(kProgram, message);
 }
 
-// "--key value" pairs and bare "--flag"s after the command.
-struct Flags {
-  std::map<std::string, std::string> values;
-  std::vector<std::string> errors;
+// --scenario, --density, --seed and --worlds-dir, which every command that builds a world takes;
+// given, they override run's --config.
+struct WorldFlags {
+  std::optional<std::string> scenario, worlds_dir;
+  std::optional<double> density;
+  std::optional<int64_t> seed;
 
-  Flags(const std::vector<std::string>& args, const std::vector<std::string>& booleans) {
-    for (size_t i = 0; i < args.size(); ++i) {
-      const std::string& arg = args[i];
-      if (arg.rfind("--", 0) != 0) {
-        errors.push_back("unexpected argument '" + arg + "'");
-      } else if (std::find(booleans.begin(), booleans.end(), arg) != booleans.end()) {
-        values[arg] = "true";
-      } else if (i + 1 < args.size()) {
-        values[arg] = args[++i];
-      } else {
-        errors.push_back(arg + " needs a value");
-      }
+  void add(CLI::App& command) {
+    command.add_option("--scenario", scenario, "paper, eth, forest50 or a scenario .yaml")
+        ->check(thicket::cli::nonEmpty());
+    command.add_option("--density", density, "trees per m^2 of the obstacle region")
+        ->check(thicket::cli::number(0));
+    thicket::cli::addSeed(command, seed);
+    command
+        .add_option("--worlds-dir", worlds_dir,
+                    "where scenario names are looked up (default: the source tree's config/worlds)")
+        ->check(thicket::cli::nonEmpty());
+  }
+
+  void apply(SimOptions& options) const {
+    options.scenario = scenario.value_or(options.scenario);
+    options.density = density.value_or(options.density);
+    options.seed = seed.value_or(options.seed);
+    options.worlds_dir = worlds_dir.value_or(options.worlds_dir);
+    if (options.worlds_dir.empty()) {
+      options.worlds_dir = std::string(THICKET_SOURCE_DIR) + "/config/worlds";
     }
   }
-  bool has(const std::string& key) const { return values.count(key) > 0; }
-  const std::string& get(const std::string& key) const { return values.at(key); }
 };
-
-bool parseNumber(const std::string& text, double& value) {
-  char* end = nullptr;
-  value = std::strtod(text.c_str(), &end);
-  return end != text.c_str() && *end == '\0' && std::isfinite(value);
-}
-
-std::string defaultWorldsDir() {
-  return std::string(THICKET_SOURCE_DIR) + "/config/worlds";
-}
-
-// Applies --scenario/--density/--seed/--worlds-dir and refuses flags the command does not know.
-std::string applyWorldFlags(const Flags& flags, const std::vector<std::string>& allowed,
-                            SimOptions& options) {
-  if (!flags.errors.empty()) return flags.errors.front();
-  for (const auto& [key, value] : flags.values) {
-    if (std::find(allowed.begin(), allowed.end(), key) == allowed.end() && key != "--scenario" &&
-        key != "--density" && key != "--seed" && key != "--worlds-dir") {
-      return "unknown option " + key;
-    }
-  }
-  double number = 0;
-  if (flags.has("--scenario")) options.scenario = flags.get("--scenario");
-  if (flags.has("--worlds-dir")) options.worlds_dir = flags.get("--worlds-dir");
-  if (flags.has("--density")) {
-    if (!parseNumber(flags.get("--density"), number) || number < 0) {
-      return "--density needs a non-negative number";
-    }
-    options.density = number;
-  }
-  if (flags.has("--seed")) {
-    if (!parseNumber(flags.get("--seed"), number) || number < 0 || number != std::floor(number)) {
-      return "--seed needs a non-negative integer";
-    }
-    options.seed = static_cast<int64_t>(number);
-  }
-  if (options.worlds_dir.empty()) options.worlds_dir = defaultWorldsDir();
-  return {};
-}
 
 thicket::Expected<thicket::sim::World> makeWorld(const SimOptions& options) {
   auto spec = thicket::sim::loadScenario(options.scenario, options.worlds_dir);
@@ -107,97 +66,91 @@ thicket::Expected<thicket::sim::World> makeWorld(const SimOptions& options) {
   return thicket::sim::generateWorld(*spec, options.density, static_cast<uint64_t>(options.seed));
 }
 
-int worldCommand(const std::vector<std::string>& args) {
-  const Flags flags(args, {"--json"});
+int worldCommand(const WorldFlags& flags) {
   SimOptions options;
-  if (auto error = applyWorldFlags(flags, {"--json"}, options); !error.empty()) return fail(error);
+  flags.apply(options);
   auto world = makeWorld(options);
   if (!world) return fail(world.error());
   std::printf("%s\n", thicket::sim::worldToJson(*world).c_str());
   return 0;
 }
 
-int renderCommand(const std::vector<std::string>& args) {
-  const Flags flags(args, {});
-  SimOptions options;
-  if (auto error =
-          applyWorldFlags(flags, {"--pose", "--out", "--left", "--right", "--calib"}, options);
-      !error.empty()) {
-    return fail(error);
-  }
-  if (!flags.has("--pose") || !(flags.has("--out") || flags.has("--left"))) {
-    return fail("render needs --pose and --out (or --left/--right/--calib)");
-  }
+struct RenderArgs {
   std::vector<double> pose;
-  std::stringstream pose_text(flags.get("--pose"));
-  for (std::string item; std::getline(pose_text, item, ',');) {
-    double value = 0;
-    if (!parseNumber(item, value)) return fail("--pose needs x,y,z,yaw (numbers)");
-    pose.push_back(value);
+  std::string out, left, right, calib;
+};
+
+void addRenderFlags(CLI::App& render, RenderArgs& args) {
+  using thicket::cli::nonEmpty;
+  render.add_option("--pose", args.pose, "the body's pose x,y,z,yaw [m, m, m, rad]")
+      ->delimiter(',')
+      ->expected(4)
+      ->check(thicket::cli::number())
+      ->required();
+  render.add_option("--out", args.out, "depth image (16-bit PNG, mm)")->check(nonEmpty());
+  CLI::Option* left =
+      render.add_option("--left", args.left, "left image of a rectified pair")->check(nonEmpty());
+  CLI::Option* right = render.add_option("--right", args.right, "right image")->check(nonEmpty());
+  CLI::Option* calib =
+      render.add_option("--calib", args.calib, "the pair's calibration (YAML)")->check(nonEmpty());
+  left->needs(right)->needs(calib);
+  right->needs(left);
+  calib->needs(left);
+}
+
+int renderCommand(const WorldFlags& flags, const RenderArgs& args) {
+  if (args.out.empty() && args.left.empty()) {
+    return fail("render needs --out and/or --left, --right and --calib");
   }
-  if (pose.size() != 4) return fail("--pose needs exactly x,y,z,yaw");
+  SimOptions options;
+  flags.apply(options);
   auto world = makeWorld(options);
   if (!world) return fail(world.error());
-  const thicket::Pose body =
-      thicket::Pose::fromYaw(Eigen::Vector3d(pose[0], pose[1], pose[2]), pose[3]);
+  const thicket::Pose body = thicket::Pose::fromYaw(
+      Eigen::Vector3d(args.pose[0], args.pose[1], args.pose[2]), args.pose[3]);
 
-  if (flags.has("--out")) {
+  if (!args.out.empty()) {
     const thicket::sim::DepthRenderer renderer(*world, options.depth_camera);
     std::vector<float> depth;
     renderer.render(body, depth);
     const auto camera = renderer.camera();
-    if (auto error =
-            thicket::sim::writeDepthPng(flags.get("--out"), camera.width, camera.height, depth);
+    if (auto error = thicket::sim::writeDepthPng(args.out, camera.width, camera.height, depth);
         !error.empty()) {
       return fail(error);
     }
   }
-  if (flags.has("--left") || flags.has("--right") || flags.has("--calib")) {
-    if (!flags.has("--left") || !flags.has("--right") || !flags.has("--calib")) {
-      return fail("a stereo pair needs --left, --right and --calib");
-    }
+  if (!args.left.empty()) {
     const thicket::sim::StereoRenderer renderer(*world, options.stereo_camera);
     std::vector<uint8_t> left, right;
     renderer.render(body, left, right);
     const auto camera = renderer.camera();
-    for (const auto& [flag, pixels] : {std::pair{"--left", &left}, std::pair{"--right", &right}}) {
-      if (auto error =
-              thicket::sim::writeGrayPng(flags.get(flag), camera.width, camera.height, *pixels);
+    for (const auto& [path, pixels] :
+         {std::pair{&args.left, &left}, std::pair{&args.right, &right}}) {
+      if (auto error = thicket::sim::writeGrayPng(*path, camera.width, camera.height, *pixels);
           !error.empty()) {
         return fail(error);
       }
     }
-    std::ofstream(flags.get("--calib"))
-        << renderer.calibrationYaml(options.stereo_camera.calibration_id);
+    std::ofstream(args.calib) << renderer.calibrationYaml(options.stereo_camera.calibration_id);
   }
   return 0;
 }
 
-// argv[0] is "run".
-int runCommand(int argc, char** argv) {
-  auto args = thicket::parseNodeArgs(argc, argv);
-  if (!args) return fail(args.error());
-  if (args->help) {
-    std::printf("%s%s", kUsage, thicket::commonNodeFlagsHelp().c_str());
-    return 0;
-  }
+int runCommand(const thicket::NodeArgs& args, const WorldFlags& flags, bool lockstep) {
   SimOptions options;
-  if (!args->config_path.empty()) {
+  if (!args.config_path.empty()) {
     try {
-      options = thicket::loadParams<SimOptions>(args->config_path);
+      options = thicket::loadParams<SimOptions>(args.config_path);
     } catch (const thicket::ParamError& e) {
       return fail(e.what());
     }
   }
-  const Flags flags(args->options, {"--lockstep"});
-  if (auto error = applyWorldFlags(flags, {"--lockstep"}, options); !error.empty()) {
-    return fail(error);
-  }
-  if (flags.has("--lockstep")) options.lockstep = true;
+  flags.apply(options);
+  options.lockstep = options.lockstep || lockstep;
   auto world = makeWorld(options);
   if (!world) return fail(world.error());
 
-  return thicket::runNode("thicket-sim", args->lcm_url, [&](lcm::LCM& lcm, thicket::Loop& loop) {
+  return thicket::runNode(kProgram, args.lcm_url, [&](lcm::LCM& lcm, thicket::Loop& loop) {
     thicket::sim::SimNode node(lcm, options, std::move(*world));
     // Liveness only (wall time decides nothing a trial records): a frame the planner does not
     // close within lockstep_step_on is stepped past, and a planner that closes none for
@@ -255,22 +208,33 @@ int runCommand(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::fprintf(stderr, "%s", kUsage);
-    return 2;
-  }
-  const std::string command = argv[1];
-  const std::vector<std::string> rest(argv + 2, argv + argc);
-  if (command == "world") return worldCommand(rest);
-  if (command == "render") return renderCommand(rest);
-  if (command == "run") return runCommand(argc - 1, argv + 1);
-  if (command == "params") {
-    std::printf("%s", thicket::describeParams<SimOptions>().c_str());
-    return 0;
-  }
-  if (command == "-h" || command == "--help") {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  return fail("unknown command '" + command + "'\n" + kUsage);
+  CLI::App app(
+      "thicket-sim: the simulated world, vehicle and sensors. `run` is the simulator process of\n"
+      "the graph; `world` and `render` work offline.",
+      kProgram);
+  app.require_subcommand(1);
+  WorldFlags world_flags, render_flags, run_flags;
+  CLI::App* world = app.add_subcommand("world", "print a generated world as JSON");
+  world_flags.add(*world);
+  bool json = true;
+  world->add_flag("--json", json, "JSON (the only format; accepted for scripts that say it)");
+  CLI::App* render =
+      app.add_subcommand("render", "render a depth image and/or a rectified stereo pair");
+  render_flags.add(*render);
+  RenderArgs render_args;
+  addRenderFlags(*render, render_args);
+  CLI::App* run = app.add_subcommand("run", "the simulator process (SIM_*, STEREO, CAMERA_DEPTH)");
+  thicket::NodeArgs node_args;
+  thicket::cli::addNodeFlags(*run, node_args);
+  run_flags.add(*run);
+  bool lockstep = false;
+  run->add_flag("--lockstep", lockstep,
+                "advance one frame per final planner status, not at --config's rate");
+  app.add_subcommand("params", "print every option of run's --config with its default");
+  if (auto exit_code = thicket::cli::parse(app, argc, argv)) return *exit_code;
+  if (*world) return worldCommand(world_flags);
+  if (*render) return renderCommand(render_flags, render_args);
+  if (*run) return runCommand(node_args, run_flags, lockstep);
+  std::printf("%s", thicket::describeParams<SimOptions>().c_str());
+  return 0;
 }

@@ -11,13 +11,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <map>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "stereo_depth_node.h"
+#include "thicket/common/cli.h"
 #include "thicket/common/loop.h"
 #include "thicket/common/node_main.h"
 
@@ -28,96 +29,81 @@ using namespace thicket::stereo_depth;
 const char* const kProgram = "thicket-stereo-depth";
 
 const char* const kUsage =
-    "usage: thicket-stereo-depth [--config stereo_depth.yaml]\n"
-    "       thicket-stereo-depth params\n"
-    "       thicket-stereo-depth file (--calib C.yaml | --rectified [--focal F --baseline B])\n"
-    "                            --left L.png --right R.png [--disparity-out D.pfm]\n"
-    "                            [--depth-out Z.png] [--max-disparity N] [--config FILE]\n";
+    "thicket-stereo-depth: stereo pairs to depth images. The node takes STEREO and publishes\n"
+    "CAMERA_DEPTH; `file` runs the same pipeline on image files.";
 
-// The number `text` spells, or NaN.
-double parseNumber(const std::string& text) {
-  try {
-    size_t used = 0;
-    const double value = std::stod(text, &used);
-    if (used == text.size() && std::isfinite(value)) return value;
-  } catch (const std::exception&) {
-  }
-  return std::nan("");
+// The arguments of the `file` command.
+struct FileArgs {
+  std::string calib, left, right, disparity_out, depth_out, config;
+  bool rectified = false;
+  std::optional<double> focal, baseline;
+  std::optional<int> max_disparity;
+};
+
+void addFileFlags(CLI::App& file, FileArgs& a) {
+  using thicket::cli::nonEmpty;
+  const double inf = std::numeric_limits<double>::infinity();
+  file.add_option("--left", a.left, "left image (PNG or PGM, 8-bit gray)")
+      ->required()
+      ->check(nonEmpty());
+  file.add_option("--right", a.right, "right image")->required()->check(nonEmpty());
+  CLI::Option* calib =
+      file.add_option("--calib", a.calib, "calibration (YAML) to rectify with")->check(nonEmpty());
+  CLI::Option* rectified =
+      file.add_flag("--rectified", a.rectified, "the pair is already rectified")->excludes(calib);
+  CLI::Option* focal = file.add_option("--focal", a.focal, "focal length of a rectified pair [px]")
+                           ->check(thicket::cli::number(std::nextafter(0.0, 1.0), inf))
+                           ->needs(rectified);
+  file.add_option("--baseline", a.baseline, "baseline of a rectified pair [m]")
+      ->check(thicket::cli::number(std::nextafter(0.0, 1.0), inf))
+      ->needs(rectified)
+      ->needs(focal);
+  focal->needs("--baseline");
+  file.add_option("--disparity-out", a.disparity_out,
+                  "disparity as PFM, in pixels of the (rectified) left image, 0 where invalid")
+      ->check(nonEmpty());
+  file.add_option("--depth-out", a.depth_out,
+                  "depth as a 16-bit PNG in millimetres, 0 where invalid")
+      ->check(nonEmpty());
+  file.add_option("--max-disparity", a.max_disparity, "largest disparity searched [px]")
+      ->check(thicket::cli::integer(1, 1024));
+  file.add_option("--config", a.config, "parameter file (YAML), as the node's")->check(nonEmpty());
 }
 
-int fileMode(int argc, char** argv) {
+int fileMode(const FileArgs& a) {
   const auto fail = [](const std::string& message) { return thicket::failNode(kProgram, message); };
-  std::map<std::string, std::string> values;
-  bool rectified = false;
-  for (int i = 2; i < argc; ++i) {
-    std::string flag = argv[i];
-    if (flag == "-h" || flag == "--help") {
-      std::printf("%s", kUsage);
-      return 0;
-    }
-    if (flag == "--rectified") {
-      rectified = true;
-      continue;
-    }
-    std::string value;
-    if (const size_t eq = flag.find('='); eq != std::string::npos) {
-      value = flag.substr(eq + 1);
-      flag = flag.substr(0, eq);
-    } else if (i + 1 < argc) {
-      value = argv[++i];
-    }
-    static const std::vector<std::string> known = {
-        "--calib", "--left",     "--right",         "--disparity-out", "--depth-out",
-        "--focal", "--baseline", "--max-disparity", "--config"};
-    if (std::find(known.begin(), known.end(), flag) == known.end()) {
-      return fail("file: unexpected argument '" + flag + "'");
-    }
-    if (value.empty()) return fail("file: " + flag + " needs a value");
-    values[flag] = value;
-  }
-  const auto has = [&](const char* flag) { return values.count(flag) > 0; };
-  if (!has("--left") || !has("--right")) return fail("file: --left and --right are required");
-  if (rectified == has("--calib")) return fail("file: give exactly one of --calib and --rectified");
-  if (!has("--disparity-out") && !has("--depth-out")) {
+  if (!a.rectified && a.calib.empty()) return fail("file: give one of --calib and --rectified");
+  if (a.disparity_out.empty() && a.depth_out.empty()) {
     return fail("file: nothing to write (give --disparity-out and/or --depth-out)");
   }
   StereoDepthNodeOptions node_options;
-  if (has("--config")) {
+  if (!a.config.empty()) {
     try {
-      node_options = thicket::loadParams<StereoDepthNodeOptions>(values["--config"]);
+      node_options = thicket::loadParams<StereoDepthNodeOptions>(a.config);
     } catch (const thicket::ParamError& e) {
       return fail(e.what());
     }
   }
   StereoDepthOptions options = node_options.stereo;
-  options.calibration_file = has("--calib") ? values["--calib"] : "";
+  options.calibration_file = a.calib;
   options.rectified = {};
-  if (has("--focal") || has("--baseline")) {
-    if (!rectified) return fail("file: --focal and --baseline go with --rectified");
-    const double focal = has("--focal") ? parseNumber(values["--focal"]) : std::nan("");
-    const double baseline = has("--baseline") ? parseNumber(values["--baseline"]) : std::nan("");
-    if (!(focal > 0)) return fail("file: --focal needs a positive number [pixels]");
-    if (!(baseline > 0)) return fail("file: --baseline needs a positive number [m]");
-    options.rectified.fx = focal;
-    options.rectified.baseline = baseline;
+  if (a.focal && a.baseline) {
+    options.rectified.fx = *a.focal;
+    options.rectified.baseline = *a.baseline;
   }
-  if (rectified && has("--depth-out") && options.rectified.fx <= 0) {
+  if (a.rectified && !a.depth_out.empty() && options.rectified.fx <= 0) {
     return fail("file: --depth-out of a rectified pair needs --focal and --baseline");
   }
-  if (has("--max-disparity")) {
-    const double n = parseNumber(values["--max-disparity"]);
-    if (!(n >= 1 && n <= 1024) || n != std::floor(n)) {
-      return fail("file: --max-disparity needs an integer in [1, 1024]");
-    }
+  if (a.max_disparity) {
     // The search covers [min_disparity, min_disparity + num_disparities): round up to 16.
-    const int needed = static_cast<int>(n) + 1 - options.matcher.min_disparity;
+    const int needed = *a.max_disparity + 1 - options.matcher.min_disparity;
     options.matcher.num_disparities = std::max(16, (needed + 15) / 16 * 16);
   }
   auto pipeline = StereoDepth::create(options);
   if (!pipeline) return fail(pipeline.error());
-  auto left = readGrayImageFile(values["--left"]);
+  auto left = readGrayImageFile(a.left);
   if (!left) return fail(left.error());
-  auto right = readGrayImageFile(values["--right"]);
+  auto right = readGrayImageFile(a.right);
   if (!right) return fail(right.error());
   if (left->width != right->width || left->height != right->height) {
     return fail("the images differ in size: left " + std::to_string(left->width) + "x" +
@@ -125,7 +111,7 @@ int fileMode(int argc, char** argv) {
                 std::to_string(right->height));
   }
   StereoPair pair;
-  pair.rectified = rectified;
+  pair.rectified = a.rectified;
   if (pipeline->rectifier())
     pair.calibration_id = pipeline->rectifier()->calibration().calibration_id;
   pair.left = std::move(*left);
@@ -134,15 +120,13 @@ int fileMode(int argc, char** argv) {
   if (!frame) return fail(frame.error());
   const int width = pair.left.width;
   const int height = pair.left.height;
-  if (has("--disparity-out")) {
-    if (auto error = writePfm(values["--disparity-out"], width, height, frame->disparity);
-        !error.empty()) {
+  if (!a.disparity_out.empty()) {
+    if (auto error = writePfm(a.disparity_out, width, height, frame->disparity); !error.empty()) {
       return fail(error);
     }
   }
-  if (has("--depth-out")) {
-    if (auto error = writeDepthPngMm(values["--depth-out"], width, height, frame->depth);
-        !error.empty()) {
+  if (!a.depth_out.empty()) {
+    if (auto error = writeDepthPngMm(a.depth_out, width, height, frame->depth); !error.empty()) {
       return fail(error);
     }
   }
@@ -163,12 +147,20 @@ int fileMode(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc >= 2 && std::string(argv[1]) == "file") return fileMode(argc, argv);
   thicket::NodeArgs args;
   StereoDepthNodeOptions options;
-  if (auto exit_code = thicket::startNode(argc, argv, kProgram, kUsage, args, options)) {
+  FileArgs file_args;
+  const CLI::App* file = nullptr;
+  if (auto exit_code =
+          thicket::startNode(argc, argv, kProgram, kUsage, args, options, [&](CLI::App& app) {
+            CLI::App* command = app.add_subcommand(
+                "file", "offline, on image files: disparity and/or depth of one stereo pair");
+            addFileFlags(*command, file_args);
+            file = command;
+          })) {
     return *exit_code;
   }
+  if (file->parsed()) return fileMode(file_args);
   // Wall-clock time only measures durations; no decision reads it.
   return thicket::runNode(kProgram, args.lcm_url, [&](lcm::LCM& lcm, thicket::Loop& loop) {
     std::unique_ptr<StereoDepthNode> node;

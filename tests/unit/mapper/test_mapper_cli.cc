@@ -71,21 +71,23 @@ TEST(MapTool, BadArgumentsFailWithAMessage) {
     EXPECT_EQ(result.status, 2) << args;
     EXPECT_NE(result.output.find(message), std::string::npos) << args << ": " << result.output;
   };
-  fails("", "usage");
-  fails("fly", "unknown command");
-  fails("build --scenario forest50 --density 0.2 --seed 1 --views 2", "build needs --out");
+  fails("", "A subcommand is required");
+  fails("fly", "unexpected argument 'fly'");
+  fails("build --scenario forest50 --density 0.2 --seed 1 --views 2", "--out is required");
   fails("build --scenario nowhere --density 0.2 --seed 1 --views 2 --out x", "nowhere");
-  fails("build --scenario paper --density 0.2 --seed 1 --views -2 --out x", "positive integer");
-  fails("build --scenario paper --density abc --seed 1 --views 2 --out x", "not a number");
+  fails("build --scenario paper --density 0.2 --seed 1 --views -2 --out x",
+        "--views: must be an integer");
+  fails("build --scenario paper --density abc --seed 1 --views 2 --out x",
+        "--density: must be a number >= 0, not 'abc'");
   fails("build --scenario paper --density 0.2 --seed 1 --views 2 --voxel 0 --out x", "voxel");
   fails("query /nonexistent.map 1,2,3", "cannot read");
   fails("info " + std::string(THICKET_SOURCE_DIR) + "/README.md", "not a thicket map");
   const std::string path = temp("small.map");
   ASSERT_EQ(map("build --scenario paper --density 0.2 --seed 1 --views 1 --out " + path).status, 0);
   fails("query " + path + " 1,2", "is not x,y,z");
-  fails("query " + path + " 1,2,z", "not a number");
+  fails("query " + path + " 1,2,z", "must be a number, not 'z'");
   fails("export " + path, "needs --ply");
-  fails("export " + path + " --obj x.obj", "unknown option");
+  fails("export " + path + " --obj x.obj", "--obj");
 }
 
 // config/params/mapper.yaml documents every option; it must load and must not fall behind.

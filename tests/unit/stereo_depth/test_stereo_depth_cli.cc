@@ -128,11 +128,12 @@ TEST_F(StereoDepthFileMode, RefusesWithAMessageAndExitCode2) {
     EXPECT_EQ(result.status, 2) << args << "\n" << result.output;
     EXPECT_NE(result.output.find(words), std::string::npos) << args << "\n" << result.output;
   };
-  refused("file --left @left.png --right @right.png --depth-out @z.png", "exactly one of");
+  refused("file --left @left.png --right @right.png --depth-out @z.png",
+          "one of --calib and --rectified");
   refused(
       "file --calib @calib.yaml --rectified --left @left.png --right @right.png "
       "--depth-out @z.png",
-      "exactly one of");
+      "--calib excludes --rectified");
   refused("file --calib @calib.yaml --left @left.png --depth-out @z.png", "--right");
   refused("file --calib @calib.yaml --left @left.png --right @right.png", "nothing to write");
   refused("file --rectified --left @left.png --right @right.png --depth-out @z.png",
