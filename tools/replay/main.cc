@@ -1,116 +1,40 @@
 // thicket-replay: replay regression of the mapper, the planner, the explorer and the VIO bridge
-// against reference logs (docs/design.md §4).
+// against reference logs (docs/design.md §4). `thicket-replay --help` says more.
 //
 //   thicket-replay check LOG                  replays LOG into the real nodes, prints the diff
 //   thicket-replay record --out LOG ...       flies one simulated trial and records it
 //   thicket-replay record-references          regenerates the reference logs in logs/
-#include <cmath>
 #include <cstdio>
-#include <map>
-#include <set>
 #include <string>
 #include <vector>
 
 #include "commands.h"
+#include "thicket/common/cli.h"
+#include "thicket/common/node_main.h"
 
 namespace {
 
 using thicket::replay::CheckOptions;
 using thicket::replay::FlightSpec;
 
-constexpr const char* kUsage =
-    "usage: thicket-replay check LOG [--method M] [--max-diffs N] [--lcmtypes DIR]\n"
-    "       thicket-replay record --out LOG --scenario S --density D --seed N --method M\n"
-    "                             [--replans R] [--dynamic-obstacle on|off]\n"
-    "       thicket-replay record-references [--logs DIR]\n"
-    "\n"
-    "check    replays LOG into the real VIO bridge, mapper, explorer (unless the method is\n"
-    "         none) and local planner, built as the benchmark builds a trial on the log's\n"
-    "         SIM_WORLD, feeding each its inputs from the log in the recorded order, and compares\n"
-    "         every message they publish with the recorded one, field by field, exactly (wall-\n"
-    "         clock durations excepted). Prints the differences as CHANNEL message I of N (utime\n"
-    "         U): FIELD: recorded A replayed B.\n"
-    "         --method     the goal-selection method the log was flown with (default: that of\n"
-    "                      the reference log of the same file name)\n"
-    "         --max-diffs  differences printed at most (default 20)\n"
-    "         --lcmtypes   the .lcm type definitions (default: the source tree's lcmtypes/)\n"
-    "record   flies one trial as `thicket-bench run` does (depth sensor, soft goal) with the\n"
-    "         real graph in this process and records it to LOG (the inputs and outputs of the\n"
-    "         replayed modules, SIM_WORLD and SIM_EVENT), then checks that it replays exactly.\n"
-    "         --scenario S (paper, eth, forest50 or a .yaml), --density D, --seed N (the world's\n"
-    "         seed), --method M (none or an explorer strategy), --replans R (default 60),\n"
-    "         --dynamic-obstacle on|off (the simulator's tree that appears on the committed\n"
-    "         path, as in E6; default off)\n"
-    "record-references\n"
-    "         regenerates every reference log, logs/<name>.lcmlog.ref, and checks each replays\n"
-    "         exactly and stays under 5 MB (20 MB in all). Run it when behaviour changes on\n"
-    "         purpose, and commit the logs with the change.\n"
-    "         --logs  where to write them (default: the source tree's logs/)\n"
-    "\n"
-    "exit status: 0 the replay equals the recording (check), the logs were written and replay\n"
+constexpr const char* kCheckHelp =
+    "Replays LOG into the real VIO bridge, mapper, explorer (unless the method is none) and local\n"
+    "planner, built as the benchmark builds a trial on the log's SIM_WORLD, feeding each its\n"
+    "inputs from the log in the recorded order, and compares every message they publish with\n"
+    "the recorded one, field by field, exactly (wall-clock durations excepted). Prints the\n"
+    "differences as CHANNEL message I of N (utime U): FIELD: recorded A replayed B.";
+constexpr const char* kRecordHelp =
+    "Flies one trial as `thicket-bench run` does (depth sensor, soft goal) with the real graph\n"
+    "in this process and records it to LOG (the inputs and outputs of the replayed modules,\n"
+    "SIM_WORLD and SIM_EVENT), then checks that it replays exactly.";
+constexpr const char* kRecordReferencesHelp =
+    "Regenerates every reference log, logs/<name>.lcmlog.ref, and checks each replays exactly\n"
+    "and stays under 5 MB (20 MB in all). Run it when behaviour changes on purpose, and commit\n"
+    "the logs with the change.";
+constexpr const char* kExitStatus =
+    "Exit status: 0 the replay equals the recording (check), the logs were written and replay\n"
     "exactly (record, record-references); 1 a difference, a damaged log, a failed recording or\n"
-    "an oversized reference; 2 bad arguments or a log that cannot be replayed at all.\n";
-
-int usageError(const std::string& message) {
-  std::fprintf(stderr, "thicket-replay: %s\n(thicket-replay --help for usage)\n", message.c_str());
-  return 2;
-}
-
-struct Arguments {
-  std::vector<std::string> positional;
-  std::map<std::string, std::string> flags;
-  std::string error;
-};
-
-// "--flag value" or "--flag=value"; every flag takes a value.
-Arguments parseArguments(const std::vector<std::string>& args, const std::set<std::string>& known) {
-  Arguments parsed;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& arg = args[i];
-    if (arg.rfind("--", 0) != 0) {
-      parsed.positional.push_back(arg);
-      continue;
-    }
-    const size_t equals = arg.find('=');
-    const std::string flag = arg.substr(0, equals);
-    if (!known.count(flag)) {
-      parsed.error = "unknown option " + flag;
-      return parsed;
-    }
-    std::string value;
-    if (equals != std::string::npos) {
-      value = arg.substr(equals + 1);
-    } else if (i + 1 < args.size()) {
-      value = args[++i];
-    }
-    if (value.empty()) {
-      parsed.error = flag + " needs a value";
-      return parsed;
-    }
-    parsed.flags[flag] = value;
-  }
-  return parsed;
-}
-
-bool parseInteger(const std::string& text, long long min, long long& value) {
-  try {
-    size_t used = 0;
-    value = std::stoll(text, &used);
-    return used == text.size() && value >= min;
-  } catch (const std::exception&) {
-    return false;
-  }
-}
-
-bool parseDensity(const std::string& text, double& value) {
-  try {
-    size_t used = 0;
-    value = std::stod(text, &used);
-    return used == text.size() && std::isfinite(value) && value >= 0;
-  } catch (const std::exception&) {
-    return false;
-  }
-}
+    "an oversized reference; 2 bad arguments or a log that cannot be replayed at all.";
 
 std::string megabytes(int64_t bytes) {
   char text[32];
@@ -147,23 +71,7 @@ int64_t recordAndCheck(const FlightSpec& flight, const std::string& path) {
   return recorded->bytes;
 }
 
-int check(const std::vector<std::string>& args) {
-  const Arguments parsed = parseArguments(args, {"--method", "--max-diffs", "--lcmtypes"});
-  if (!parsed.error.empty()) return usageError(parsed.error);
-  if (parsed.positional.size() != 1) return usageError("check needs exactly one LOG");
-  CheckOptions options;
-  options.log = parsed.positional[0];
-  options.lcmtypes_dir = thicket::replay::defaultLcmTypesDir();
-  if (parsed.flags.count("--method")) options.method = parsed.flags.at("--method");
-  if (parsed.flags.count("--lcmtypes")) options.lcmtypes_dir = parsed.flags.at("--lcmtypes");
-  if (parsed.flags.count("--max-diffs")) {
-    long long n = 0;
-    if (!parseInteger(parsed.flags.at("--max-diffs"), 0, n)) {
-      return usageError("--max-diffs must be an integer >= 0, not '" +
-                        parsed.flags.at("--max-diffs") + "'");
-    }
-    options.max_diffs = static_cast<size_t>(n);
-  }
+int check(const CheckOptions& options) {
   const auto result = thicket::replay::checkLog(options);
   if (!result) {
     std::fprintf(stderr, "thicket-replay: %s\n", result.error().c_str());
@@ -173,54 +81,14 @@ int check(const std::vector<std::string>& args) {
   return result->equal ? 0 : 1;
 }
 
-int record(const std::vector<std::string>& args) {
-  const Arguments parsed = parseArguments(args, {"--out", "--scenario", "--density", "--seed",
-                                                 "--method", "--replans", "--dynamic-obstacle"});
-  if (!parsed.error.empty()) return usageError(parsed.error);
-  if (!parsed.positional.empty()) {
-    return usageError("unexpected argument '" + parsed.positional[0] + "'");
+int record(const FlightSpec& flight, const std::string& out) {
+  if (const auto invalid = thicket::replay::validateFlight(flight)) {
+    return thicket::failNode("thicket-replay", *invalid);
   }
-  for (const char* required : {"--out", "--scenario", "--density", "--seed", "--method"}) {
-    if (!parsed.flags.count(required)) return usageError(std::string("record needs ") + required);
-  }
-  FlightSpec flight;
-  flight.scenario = parsed.flags.at("--scenario");
-  flight.method = parsed.flags.at("--method");
-  if (!parseDensity(parsed.flags.at("--density"), flight.density)) {
-    return usageError("--density '" + parsed.flags.at("--density") +
-                      "' is not a non-negative number");
-  }
-  long long value = 0;
-  if (!parseInteger(parsed.flags.at("--seed"), 0, value)) {
-    return usageError("--seed must be an integer >= 0, not '" + parsed.flags.at("--seed") + "'");
-  }
-  flight.seed = value;
-  if (parsed.flags.count("--replans")) {
-    if (!parseInteger(parsed.flags.at("--replans"), 1, value) || value > 100000) {
-      return usageError("--replans must be an integer from 1 to 100000, not '" +
-                        parsed.flags.at("--replans") + "'");
-    }
-    flight.replans = static_cast<int>(value);
-  }
-  if (parsed.flags.count("--dynamic-obstacle")) {
-    const std::string& on = parsed.flags.at("--dynamic-obstacle");
-    if (on != "on" && on != "off") {
-      return usageError("--dynamic-obstacle must be on or off, not '" + on + "'");
-    }
-    flight.dynamic_obstacle = on == "on";
-  }
-  if (const auto invalid = thicket::replay::validateFlight(flight)) return usageError(*invalid);
-  return recordAndCheck(flight, parsed.flags.at("--out")) < 0 ? 1 : 0;
+  return recordAndCheck(flight, out) < 0 ? 1 : 0;
 }
 
-int recordReferences(const std::vector<std::string>& args) {
-  const Arguments parsed = parseArguments(args, {"--logs"});
-  if (!parsed.error.empty()) return usageError(parsed.error);
-  if (!parsed.positional.empty()) {
-    return usageError("unexpected argument '" + parsed.positional[0] + "'");
-  }
-  const std::string dir =
-      parsed.flags.count("--logs") ? parsed.flags.at("--logs") : thicket::replay::defaultLogsDir();
+int recordReferences(const std::string& dir) {
   bool ok = true;
   int64_t total = 0;
   for (const auto& reference : thicket::replay::referenceFlights()) {
@@ -250,16 +118,71 @@ int recordReferences(const std::vector<std::string>& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::vector<std::string> args(argv + 1, argv + argc);
-  if (args.empty()) return usageError("no command given");
-  const std::string& command = args[0];
-  if (command == "--help" || command == "-h" || command == "help") {
-    std::fputs(kUsage, stdout);
-    return 0;
+  using thicket::cli::nonEmpty;
+  CLI::App app(
+      "thicket-replay: replay regression of the mapper, the planner, the explorer and the VIO\n"
+      "bridge against reference logs (docs/design.md, Replay).",
+      "thicket-replay");
+  app.footer(kExitStatus);
+  app.require_subcommand(1);
+
+  CheckOptions check_options;
+  check_options.lcmtypes_dir = thicket::replay::defaultLcmTypesDir();
+  CLI::App* check_command = app.add_subcommand("check", "replay LOG and print the differences");
+  check_command->footer(kCheckHelp);
+  check_command->add_option("LOG", check_options.log, "the log")->required()->check(nonEmpty());
+  check_command
+      ->add_option("--method", check_options.method,
+                   "the goal-selection method the log was flown with (default: that of the "
+                   "reference log of the same file name)")
+      ->check(nonEmpty());
+  check_command->add_option("--max-diffs", check_options.max_diffs, "differences printed at most")
+      ->check(thicket::cli::integer(0))
+      ->capture_default_str();
+  check_command
+      ->add_option("--lcmtypes", check_options.lcmtypes_dir,
+                   "the .lcm type definitions (default: the source tree's lcmtypes/)")
+      ->check(nonEmpty());
+
+  FlightSpec flight;
+  std::string out;
+  std::string dynamic_obstacle = "off";
+  CLI::App* record_command =
+      app.add_subcommand("record", "fly one simulated trial, record it and check it replays");
+  record_command->footer(kRecordHelp);
+  record_command->add_option("--out", out, "the log to write")->required()->check(nonEmpty());
+  record_command->add_option("--scenario", flight.scenario, "paper, eth, forest50 or a .yaml")
+      ->required()
+      ->check(nonEmpty());
+  record_command->add_option("--density", flight.density, "trees per m^2 of the obstacle region")
+      ->required()
+      ->check(thicket::cli::number(0));
+  thicket::cli::addSeed(*record_command, flight.seed)->required();
+  record_command->add_option("--method", flight.method, "none or an explorer strategy")
+      ->required()
+      ->check(nonEmpty());
+  record_command->add_option("--replans", flight.replans, "the replan limit [cycles]")
+      ->check(thicket::cli::integer(1, 100000))
+      ->capture_default_str();
+  record_command
+      ->add_option("--dynamic-obstacle", dynamic_obstacle,
+                   "the simulator's tree that appears on the committed path, as in E6")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+
+  std::string logs_dir = thicket::replay::defaultLogsDir();
+  CLI::App* references_command =
+      app.add_subcommand("record-references", "regenerate the reference logs in logs/");
+  references_command->footer(kRecordReferencesHelp);
+  references_command
+      ->add_option("--logs", logs_dir, "where to write them (default: the source tree's logs/)")
+      ->check(nonEmpty());
+
+  if (auto exit_code = thicket::cli::parse(app, argc, argv)) return *exit_code;
+  if (*check_command) return check(check_options);
+  if (*record_command) {
+    flight.dynamic_obstacle = dynamic_obstacle == "on";
+    return record(flight, out);
   }
-  const std::vector<std::string> rest(args.begin() + 1, args.end());
-  if (command == "check") return check(rest);
-  if (command == "record") return record(rest);
-  if (command == "record-references") return recordReferences(rest);
-  return usageError("unknown command '" + command + "'");
+  return recordReferences(logs_dir);
 }
