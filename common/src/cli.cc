@@ -104,15 +104,19 @@ void addNodeFlags(CLI::App& app, NodeArgs& args) {
   app.add_option("--config", args.config_path, "parameter file (YAML)")->check(nonEmpty());
 }
 
+int usageError(const std::string& program, const std::string& message) {
+  std::fprintf(stderr, "%s: %s\nRun with --help for more information.\n", program.c_str(),
+               message.c_str());
+  return 2;
+}
+
 std::optional<int> parse(CLI::App& app, int argc, const char* const* argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {  // --help
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "%s: %s\nRun with --help for more information.\n", app.get_name().c_str(),
-                 errorText(app, e).c_str());
-    return 2;
+    return usageError(app.get_name(), errorText(app, e));
   }
   return std::nullopt;
 }

@@ -1,7 +1,7 @@
 // thicket-sheriff: runs a process sheet through procman_lcm deputies (docs/procman.md).
 // Headless: prints a status table and the commands' output to stdout, takes commands on stdin
 // (one per line; EOF does not quit), quits on `quit`, SIGINT or SIGTERM after stopping what it
-// ordered. See usage() for the options.
+// ordered. `thicket-sheriff --help` lists the options.
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/prctl.h>
@@ -30,6 +30,7 @@
 #include <procman_lcm/orders_t.hpp>
 #include <procman_lcm/output_t.hpp>
 
+#include "thicket/common/cli.h"
 #include "thicket/common/expected.h"
 #include "thicket/common/loop.h"
 #include "thicket/common/node.h"
@@ -49,31 +50,10 @@ constexpr const char* kProgram = "thicket-sheriff";
 constexpr int64_t kOrdersPeriodUs = 1'000'000;
 constexpr int kMaxPollMs = 100;
 
-const char* kUsage =
-    "usage: thicket-sheriff [options] sheet.pmd [script]\n"
-    "       thicket-sheriff -o [options] [sheet.pmd]\n"
-    "Runs the commands of a procman sheet through thicket-deputy (or any procman_lcm deputy).\n"
-    "Prints a status table and the commands' output; reads commands on stdin ('help').\n"
-    "  -l, --lone-ranger        spawn a local thicket-deputy for the sheet's deputy id (one per\n"
-    "                           id when the sheet names several); it dies with the sheriff\n"
-    "  -o, --observer           send no orders: only show what deputies and sheriffs say\n"
-    "  -u, --lcm-url URL        LCM URL (default $LCM_DEFAULT_URL, else loopback multicast)\n"
-    "      --exit-after-script  exit when the script ends: 0 if it completed, 1 if it failed\n"
-    "                           or timed out (commands keep running on their deputies;\n"
-    "                           with -l the local deputy stops them as it exits)\n"
-    "      --wait-timeout S     fail a script whose status wait lasts more than S seconds\n"
-    "                           (default 0: wait forever)\n"
-    "      --status-period S    reprint the status table on changes at most every S seconds\n"
-    "                           (default 1; 0: only on 'status')\n"
-    "  -h, --help               this text\n"
-    "Exit status: 0 on quit or a completed script, 1 on a failed script or a runtime error,\n"
-    "2 on a bad command line, sheet or script name.\n";
-
 struct Args {
   bool lone_ranger = false;
   bool observer = false;
   bool exit_after_script = false;
-  bool help = false;
   std::string lcm_url;
   double wait_timeout_s = 0;
   double status_period_s = 1;
@@ -81,122 +61,55 @@ struct Args {
   std::string script;
 };
 
-Expected<double> parseSeconds(const std::string& flag, const std::string& text) {
-  char* end = nullptr;
-  errno = 0;
-  const double value = std::strtod(text.c_str(), &end);
-  if (text.empty() || end == nullptr || *end != '\0' || errno != 0 || !std::isfinite(value) ||
-      value < 0 || value > 1e6) {
-    return unexpected(flag + " needs a number of seconds (0 to 1e6), not '" + text + "'");
+// Parses the command line into `args`; the exit status when main should return now.
+std::optional<int> parseArgs(int argc, char** argv, Args& args) {
+  CLI::App app(
+      "thicket-sheriff: runs the commands of a procman sheet through thicket-deputy (or any\n"
+      "procman_lcm deputy). Prints a status table and the commands' output; reads commands on\n"
+      "stdin ('help').\n"
+      "  thicket-sheriff [options] sheet.pmd [script]\n"
+      "  thicket-sheriff -o [options] [sheet.pmd]",
+      kProgram);
+  app.footer(
+      "Exit status: 0 on quit or a completed script, 1 on a failed script or a runtime error,\n"
+      "2 on a bad command line, sheet or script name.");
+  app.add_option("sheet", args.sheet_path, "the process sheet (.pmd)")->check(cli::nonEmpty());
+  app.add_option("script", args.script, "a script of the sheet to run")->check(cli::nonEmpty());
+  CLI::Option* lone_ranger =
+      app.add_flag("-l,--lone-ranger", args.lone_ranger,
+                   "spawn a local thicket-deputy for the sheet's deputy id (one per id when the "
+                   "sheet names several); it dies with the sheriff")
+          ->disable_flag_override();
+  app.add_flag("-o,--observer", args.observer,
+               "send no orders: only show what deputies and sheriffs say")
+      ->disable_flag_override()
+      ->excludes(lone_ranger);
+  cli::addLcmUrl(app, args.lcm_url, true);
+  app.add_flag("--exit-after-script", args.exit_after_script,
+               "exit when the script ends: 0 if it completed, 1 if it failed or timed out "
+               "(commands keep running on their deputies; with -l the local deputy stops them "
+               "as it exits)")
+      ->disable_flag_override();
+  app.add_option("--wait-timeout", args.wait_timeout_s,
+                 "fail a script whose status wait lasts more than S seconds (0: wait forever)")
+      ->check(cli::number(0, 1e6))
+      ->capture_default_str();
+  app.add_option("--status-period", args.status_period_s,
+                 "reprint the status table on changes at most every S seconds (0: only on "
+                 "'status')")
+      ->check(cli::number(0, 1e6))
+      ->capture_default_str();
+  if (auto exit_code = cli::parse(app, argc, argv)) return exit_code;
+  std::string problem;
+  if (args.sheet_path.empty() && !args.observer) {
+    problem = "no sheet given";
+  } else if (args.observer && !args.script.empty()) {
+    problem = "an observer sends no orders, so it cannot run a script";
+  } else if (args.exit_after_script && args.script.empty()) {
+    problem = "--exit-after-script needs a script";
   }
-  return value;
-}
-
-Expected<Args> parseArgs(int argc, char** argv) {
-  Args args;
-  std::vector<std::string> positional;
-  bool options_done = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (options_done || arg.empty() || arg[0] != '-' || arg == "-") {
-      positional.push_back(arg);
-      continue;
-    }
-    if (arg == "--") {
-      options_done = true;
-      continue;
-    }
-    // The value of an option that takes one: "--flag=value", "--flag value", "-uvalue", "-u value".
-    std::string name = arg;
-    std::optional<std::string> inline_value;
-    if (arg.rfind("--", 0) == 0) {
-      const size_t eq = arg.find('=');
-      if (eq != std::string::npos) {
-        name = arg.substr(0, eq);
-        inline_value = arg.substr(eq + 1);
-      }
-    } else if (arg.size() > 2) {
-      // Short flags may be combined ("-lo"); -u takes the rest as its value.
-      for (size_t k = 1; k < arg.size(); ++k) {
-        const char c = arg[k];
-        if (c == 'l') {
-          args.lone_ranger = true;
-        } else if (c == 'o') {
-          args.observer = true;
-        } else if (c == 'h') {
-          args.help = true;
-        } else if (c == 'u') {
-          std::string value = arg.substr(k + 1);
-          if (value.empty()) {
-            if (i + 1 >= argc) return unexpected("-u needs a value");
-            value = argv[++i];
-          }
-          if (value.empty()) return unexpected("-u needs a non-empty value");
-          args.lcm_url = value;
-          break;
-        } else {
-          return unexpected(std::string("unknown option '-") + c + "'");
-        }
-      }
-      continue;
-    }
-    const auto value = [&]() -> Expected<std::string> {
-      if (inline_value) {
-        if (inline_value->empty()) return unexpected(name + " needs a non-empty value");
-        return *inline_value;
-      }
-      if (i + 1 >= argc) return unexpected(name + " needs a value");
-      const std::string next = argv[++i];
-      if (next.empty()) return unexpected(name + " needs a non-empty value");
-      return next;
-    };
-    const auto noValue = [&]() -> std::string {
-      return inline_value ? name + " takes no value" : "";
-    };
-    std::string problem;
-    if (name == "-l" || name == "--lone-ranger") {
-      problem = noValue();
-      args.lone_ranger = true;
-    } else if (name == "-o" || name == "--observer") {
-      problem = noValue();
-      args.observer = true;
-    } else if (name == "-h" || name == "--help") {
-      problem = noValue();
-      args.help = true;
-    } else if (name == "--exit-after-script") {
-      problem = noValue();
-      args.exit_after_script = true;
-    } else if (name == "-u" || name == "--lcm-url") {
-      auto url = value();
-      if (!url) return unexpected(url.error());
-      args.lcm_url = *url;
-    } else if (name == "--wait-timeout" || name == "--status-period") {
-      auto text = value();
-      if (!text) return unexpected(text.error());
-      auto seconds = parseSeconds(name, *text);
-      if (!seconds) return unexpected(seconds.error());
-      (name == "--wait-timeout" ? args.wait_timeout_s : args.status_period_s) = *seconds;
-    } else {
-      return unexpected("unknown option '" + arg + "'");
-    }
-    if (!problem.empty()) return unexpected(problem);
-  }
-  if (args.help) return args;
-  if (positional.size() > 2) return unexpected("too many arguments (a sheet and a script at most)");
-  if (!positional.empty()) args.sheet_path = positional[0];
-  if (positional.size() > 1) args.script = positional[1];
-  if (args.sheet_path.empty() && !args.observer) return unexpected("no sheet given");
-  if (args.observer && !args.script.empty()) {
-    return unexpected("an observer sends no orders, so it cannot run a script");
-  }
-  if (args.observer && args.lone_ranger) {
-    return unexpected("--observer and --lone-ranger do not go together");
-  }
-  if (args.exit_after_script && args.script.empty()) {
-    return unexpected("--exit-after-script needs a script");
-  }
-  if (args.lcm_url.empty()) args.lcm_url = defaultLcmUrl();
-  return args;
+  if (!problem.empty()) return cli::usageError(kProgram, problem);
+  return std::nullopt;
 }
 
 int64_t wallMicros() {
@@ -741,18 +654,11 @@ class SheriffProgram {
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  auto args = parseArgs(argc, argv);
-  if (!args) {
-    std::fprintf(stderr, "%s: %s\n%s", kProgram, args.error().c_str(), kUsage);
-    return 2;
-  }
-  if (args->help) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
+  Args args;
+  if (auto exit_code = parseArgs(argc, argv, args)) return *exit_code;
   Sheet sheet;
-  if (!args->sheet_path.empty()) {
-    auto loaded = loadSheet(args->sheet_path);
+  if (!args.sheet_path.empty()) {
+    auto loaded = loadSheet(args.sheet_path);
     if (!loaded) {
       std::fprintf(stderr, "%s: %s\n", kProgram, loaded.error().c_str());
       return 2;
@@ -760,7 +666,7 @@ int main(int argc, char** argv) {
     sheet = std::move(*loaded);
   }
   try {
-    SheriffProgram program(*args, std::move(sheet));
+    SheriffProgram program(args, std::move(sheet));
     return program.run();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "%s: %s\n", kProgram, e.what());

@@ -49,8 +49,7 @@ constexpr const char* kExitStatus =
     "2 bad arguments, a log that cannot be opened, or a recording that cannot start.";
 
 int usageError(const std::string& message) {
-  std::fprintf(stderr, "thicket-log: %s\nRun with --help for more information.\n", message.c_str());
-  return 2;
+  return thicket::cli::usageError("thicket-log", message);
 }
 
 int fail(int status, const std::string& message) {

@@ -46,6 +46,10 @@ CLI::Option* addSeed(CLI::App& app, Seed& seed,
   return app.add_option("--seed", seed, help)->check(integer(0));
 }
 
+/// Prints "<program>: <message>" and a hint to --help on stderr and returns 2, the exit status of
+/// a bad command line (also for what only the program can check after parsing).
+int usageError(const std::string& program, const std::string& message);
+
 /// Parses `argc`/`argv` into `app`. Returns the exit status when main should return now: 0 after
 /// printing the help (-h/--help, of the program or of the subcommand asked), 2 after printing
 /// "<program>: <what is wrong>" and a hint to --help on stderr. Nothing when the program goes on.
