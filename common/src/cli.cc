@@ -1,12 +1,12 @@
 #include "thicket/common/cli.h"
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
 
 #include "thicket/common/node_main.h"
+#include "thicket/common/number_text.h"
 
 namespace thicket::cli {
 namespace {
@@ -15,17 +15,6 @@ std::string numberText(double value) {
   std::ostringstream text;
   text << value;
   return text.str();
-}
-
-// `text`, all of it, as a finite number, or nothing.
-std::optional<double> finite(const std::string& text) {
-  double value = 0;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (text.empty() || error != std::errc() || end != text.data() + text.size() ||
-      !std::isfinite(value)) {
-    return std::nullopt;
-  }
-  return value;
 }
 
 std::string trimmed(const std::string& text) {
@@ -43,7 +32,7 @@ std::string rangeText(double min, double max) {
 }
 
 std::string checkNumber(const std::string& text, double min, double max) {
-  const std::optional<double> value = finite(text);
+  const std::optional<double> value = finiteNumber(text);
   if (value && *value >= min && *value <= max) return {};
   return "must be a number" + rangeText(min, max) + ", not '" + text + "'";
 }
@@ -61,16 +50,17 @@ std::string errorText(const CLI::App& app, const CLI::ParseError& error) {
 }  // namespace
 
 CLI::Validator integer(int64_t min, int64_t max) {
-  const std::string range = max == std::numeric_limits<int64_t>::max()
+  // An int's or an int64_t's whole upper range reads as none.
+  const bool unbounded =
+      max == std::numeric_limits<int64_t>::max() || max == std::numeric_limits<int>::max();
+  const std::string range = unbounded
                                 ? " >= " + std::to_string(min)
                                 : " in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
   return CLI::Validator(
       [min, max, range](const std::string& text) -> std::string {
-        int64_t value = 0;
-        const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+        const std::optional<int64_t> value = integerNumber<int64_t>(text);
         // Only the canonical spelling: "010" would reach CLI11's base-0 conversion as octal.
-        if (text.empty() || error != std::errc() || end != text.data() + text.size() ||
-            std::to_string(value) != text || value < min || value > max) {
+        if (!value || std::to_string(*value) != text || *value < min || *value > max) {
           return "must be an integer" + range + ", not '" + text + "'";
         }
         return {};
@@ -102,6 +92,19 @@ CLI::Option* addLcmUrl(CLI::App& app, std::string& url, bool with_short) {
 void addNodeFlags(CLI::App& app, NodeArgs& args) {
   addLcmUrl(app, args.lcm_url);
   app.add_option("--config", args.config_path, "parameter file (YAML)")->check(nonEmpty());
+}
+
+CLI::Option* addSwitch(CLI::App& app, const std::string& name, bool& value,
+                       const std::string& help) {
+  return app.add_option(name, value, help)
+      ->transform(CLI::Validator(
+          [](std::string& text) -> std::string {
+            if (text != "on" && text != "off") return "must be on or off, not '" + text + "'";
+            text = text == "on" ? "true" : "false";
+            return {};
+          },
+          "on|off"))
+      ->default_str(value ? "on" : "off");
 }
 
 int usageError(const std::string& program, const std::string& message) {

@@ -94,13 +94,13 @@ TEST_F(ReplayCli, WrongArgumentsSayWhatIsWrong) {
       {"record" + out + " --scenario paper --density x --seed 1 --method none",
        "--density: must be a number >= 0, not 'x'"},
       {"record" + out + " --scenario paper --density 0.1 --seed 1 --method best",
-       "unknown method 'best'"},
+       "--method: best not in {none,"},
       {"record" + out + " --scenario moon --density 0.1 --seed 1 --method none", "moon"},
       {"record" + out + " --scenario paper --density 0.1 --seed 1 --method none --replans 0",
        "--replans: must be an integer in [1, 100000], not '0'"},
       {"record" + out + " --scenario paper --density 0.1 --seed 1 --method none" +
            " --dynamic-obstacle yes",
-       "--dynamic-obstacle: yes not in {on,off}"},
+       "--dynamic-obstacle: must be on or off, not 'yes'"},
       {"record-references --logs", "--logs: 1 required TEXT missing"},
   };
   for (const Case& c : cases) {

@@ -105,6 +105,22 @@ TEST(Cli, NumbersAreFiniteAndInRange) {
   }
 }
 
+TEST(Cli, SwitchesAreOnOrOff) {
+  for (const auto& [text, expected] : {std::pair{"on", true}, std::pair{"off", false}}) {
+    CLI::App app("test", "test");
+    bool value = !expected;
+    cli::addSwitch(app, "--light", value, "a switch");
+    ASSERT_TRUE(cli::parseArgs(app, {"--light", text}));
+    EXPECT_EQ(value, expected) << text;
+  }
+  CLI::App app("test", "test");
+  bool value = false;
+  cli::addSwitch(app, "--light", value, "a switch");
+  const Expected<bool> refused = cli::parseArgs(app, {"--light=yes"});
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error(), "--light: must be on or off, not 'yes'");
+}
+
 TEST(Cli, UnknownFlagsAndHelp) {
   EXPECT_NE(parsed({"--bogus", "1"}).find("--bogus"), std::string::npos);
   CLI::App app("test", "test");

@@ -14,6 +14,7 @@
 #include "csv.h"
 #include "flags.h"
 #include "thicket/common/esdf_query.h"
+#include "thicket/common/number_text.h"
 #include "thicket/common/random.h"
 #include "thicket/sim/ground_truth.h"
 #include "thicket/sim/render.h"
@@ -54,95 +55,54 @@ const std::vector<MappingVariant>& mappingVariants() {
 
 namespace {
 
-std::string usage() {
+void addClearanceFlags(CLI::App& app, ClearanceOptions& o) {
+  using cli::nonEmpty;
+  const int int_max = std::numeric_limits<int>::max();
   std::string variants;
   for (const MappingVariant& v : mappingVariants()) {
-    variants += "                       " + v.name + ": " + v.description + "\n";
+    variants += "  " + v.name + ": " + v.description + "\n";
   }
-  return "usage: thicket-bench clearance --out DIR [options]\n"
-         "  How much clearance the ESDF promises that the world does not have (ESDF distance -\n"
-         "  true distance) within the planning horizon, on maps built along flown paths: the\n"
-         "  real graph (local_exploration) flies every world once, then its frames are mapped\n"
-         "  again under every voxel size, depth noise and mapping variant. Prints the table and\n"
-         "  writes DIR/clearance.csv.\n"
-         "  --flights LIST       scenario:density pairs (default paper:0.3,eth:0.3,forest50:0.2)\n"
-         "  --worlds N           worlds per flight, seeds B..B+N-1 (default 2)\n"
-         "  --seed-base B        (default 0)\n"
-         "  --replans R          replan limit of each flight (default 60)\n"
-         "  --voxel-sizes LIST   [m] (default 0.2,0.1)\n"
-         "  --noises LIST        depth noise sigma at 1 m, sigma = this * z^2 (default 0,0.005)\n"
-         "  --variants LIST      mapping variants (default all):\n" +
-         variants +
-         "  --horizon R          voxels and points within R of the vehicle (default 3) [m]\n"
-         "  --robot-radius R     (default 0.5) [m]\n"
-         "  --band B             voxels and points up to R + B from an obstacle (default 0) [m]\n"
-         "  --points N           random points per frame (default 2000)\n"
-         "  --jobs J             threads (default 1)\n"
-         "  --worlds-dir DIR     where scenario names are looked up\n"
-         "  --out DIR            the output folder\n";
-}
-
-template <class T>
-FlagError parseList(std::vector<T>& out, const std::string& flag, const std::string& text,
-                    const std::function<FlagError(T&, const std::string&)>& parse) {
-  std::vector<T> values;
-  size_t start = 0;
-  while (true) {
-    const size_t comma = text.find(',', start);
-    const std::string item = text.substr(start, comma == std::string::npos ? comma : comma - start);
-    T value{};
-    if (FlagError error = parse(value, item)) return flag + ": " + *error;
-    values.push_back(value);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  out = values;
-  return {};
-}
-
-FlagError parseNumbers(std::vector<double>& out, const std::string& flag, const std::string& text) {
-  return parseList<double>(out, flag, text, [](double& v, const std::string& item) {
-    return parseNumber(v, "'" + item + "'", item);
-  });
-}
-
-FlagError parseNames(std::vector<std::string>& out, const std::string& flag,
-                     const std::string& text) {
-  return parseList<std::string>(out, flag, text, [](std::string& v, const std::string& item) {
-    v = item;
-    return item.empty() ? FlagError("an empty name") : FlagError();
-  });
-}
-
-const std::map<std::string, FlagSetter<ClearanceOptions>>& setters() {
-  using O = ClearanceOptions;
-  using S = const std::string&;
-  static const std::map<std::string, FlagSetter<O>> table = {
-      {"--flights", [](O& o, S v) { return parseNames(o.flights, "--flights", v); }},
-      {"--worlds", [](O& o, S v) { return parseInteger(o.worlds, "--worlds", v, 1); }},
-      {"--seed-base",
-       [](O& o, S v) { return parseInteger<int64_t>(o.seed_base, "--seed-base", v, 0); }},
-      {"--replans", [](O& o, S v) { return parseInteger(o.replans, "--replans", v, 1); }},
-      {"--voxel-sizes", [](O& o, S v) { return parseNumbers(o.voxel_sizes, "--voxel-sizes", v); }},
-      {"--noises", [](O& o, S v) { return parseNumbers(o.noises, "--noises", v); }},
-      {"--variants", [](O& o, S v) { return parseNames(o.variants, "--variants", v); }},
-      {"--horizon", [](O& o, S v) { return parseNumber(o.horizon, "--horizon", v); }},
-      {"--band", [](O& o, S v) { return parseNumber(o.band, "--band", v); }},
-      {"--robot-radius",
-       [](O& o, S v) { return parseNumber(o.robot_radius, "--robot-radius", v); }},
-      {"--points", [](O& o, S v) { return parseInteger(o.points_per_frame, "--points", v, 1); }},
-      {"--jobs", [](O& o, S v) { return parseInteger(o.jobs, "--jobs", v, 1); }},
-      {"--worlds-dir", [](O& o, S v) { return (o.worlds_dir = v, FlagError()); }},
-      {"--out", [](O& o, S v) { return (o.out_dir = v, FlagError()); }},
-  };
-  return table;
-}
-
-const MappingVariant* findVariant(const std::string& name) {
-  for (const MappingVariant& v : mappingVariants()) {
-    if (v.name == name) return &v;
-  }
-  return nullptr;
+  app.footer("Mapping variants (--variants):\n" + variants);
+  app.add_option("--flights", o.flights, "scenario:density pairs")
+      ->delimiter(',')
+      ->check(nonEmpty())
+      ->capture_default_str();
+  app.add_option("--worlds", o.worlds, "worlds per flight, seeds B..B+N-1")
+      ->check(cli::integer(1, int_max))
+      ->capture_default_str();
+  app.add_option("--seed-base", o.seed_base, "B")->check(cli::integer(0))->capture_default_str();
+  app.add_option("--replans", o.replans, "replan limit of each flight")
+      ->check(cli::integer(1, int_max))
+      ->capture_default_str();
+  app.add_option("--voxel-sizes", o.voxel_sizes, "[m], each in [0.02, 1]")
+      ->delimiter(',')
+      ->check(cli::number(0.02, 1.0))
+      ->capture_default_str();
+  app.add_option("--noises", o.noises, "depth noise sigma at 1 m, sigma = this * z^2")
+      ->delimiter(',')
+      ->check(cli::number(0))
+      ->capture_default_str();
+  std::vector<std::string> names;
+  for (const MappingVariant& v : mappingVariants()) names.push_back(v.name);
+  app.add_option("--variants", o.variants, "mapping variants (default all)")
+      ->delimiter(',')
+      ->check(CLI::IsMember(names));
+  app.add_option("--horizon", o.horizon, "voxels and points within R of the vehicle [m]")
+      ->check(cli::number(std::nextafter(0.0, 1.0)))
+      ->capture_default_str();
+  app.add_option("--robot-radius", o.robot_radius, "[m]")
+      ->check(cli::number(0))
+      ->capture_default_str();
+  app.add_option("--band", o.band, "voxels and points up to R + B from an obstacle [m]")
+      ->check(cli::number(0))
+      ->capture_default_str();
+  app.add_option("--points", o.points_per_frame, "random points per frame")
+      ->check(cli::integer(1, int_max))
+      ->capture_default_str();
+  app.add_option("--jobs", o.jobs, "threads")->check(cli::integer(1, 1024))->capture_default_str();
+  app.add_option("--worlds-dir", o.worlds_dir, "where scenario names are looked up")
+      ->check(nonEmpty());
+  app.add_option("--out", o.out_dir, "the output folder")->required()->check(nonEmpty());
 }
 
 struct FlightSpec {
@@ -432,21 +392,18 @@ void printTable(const std::vector<ClearanceRow>& rows) {
 }  // namespace
 
 Expected<ClearanceOptions> parseClearanceOptions(const std::vector<std::string>& args) {
-  ClearanceOptions options;
-  const auto given = applyFlags(args, setters(), options);
-  if (!given) return unexpected(given.error());
-  if (options.help) return options;
-  if (options.out_dir.empty()) return unexpected("no output folder given (--out DIR)");
-  for (const std::string& flight : options.flights) {
+  auto options = parseCommand<ClearanceOptions>(
+      "clearance",
+      "thicket-bench clearance: how much clearance the ESDF promises that the world does not\n"
+      "have (ESDF distance - true distance) within the planning horizon, on maps built along\n"
+      "flown paths: the real graph (local_exploration) flies every world once, then its frames\n"
+      "are mapped again under every voxel size, depth noise and mapping variant. Prints the\n"
+      "table and writes DIR/clearance.csv.",
+      args, addClearanceFlags);
+  if (!options || !options->help.empty()) return options;
+  for (const std::string& flight : options->flights) {
     if (auto parsed = parseFlight(flight); !parsed) return unexpected(parsed.error());
   }
-  for (const std::string& name : options.variants) {
-    if (findVariant(name) == nullptr) return unexpected("unknown mapping variant '" + name + "'");
-  }
-  for (const double v : options.voxel_sizes) {
-    if (!(v >= 0.02 && v <= 1.0)) return unexpected("voxel sizes must be in [0.02, 1] m");
-  }
-  if (!(options.horizon > 0)) return unexpected("--horizon must be positive");
   return options;
 }
 
@@ -524,13 +481,9 @@ std::vector<ClearanceRow> measureClearance(const ClearanceOptions& options) {
 
 int clearanceCommand(const std::vector<std::string>& args) {
   auto options = parseClearanceOptions(args);
-  if (!options) {
-    std::fprintf(stderr, "thicket-bench clearance: %s\n(thicket-bench clearance --help)\n",
-                 options.error().c_str());
-    return 2;
-  }
-  if (options->help) {
-    std::fputs(usage().c_str(), stdout);
+  if (!options) return usageError("clearance", options.error());
+  if (!options->help.empty()) {
+    std::fputs(options->help.c_str(), stdout);
     return 0;
   }
   try {

@@ -68,7 +68,7 @@ struct ClearanceOptions {
   int jobs = 1;
   std::string worlds_dir;  ///< empty: the source tree's config/worlds
   std::string out_dir;
-  bool help = false;
+  std::string help;  ///< the --help text, when it was asked
 };
 
 /// The distribution of one kind of error of one configuration [m].

@@ -28,6 +28,7 @@
 #include "report.h"
 #include "subsampling.h"
 #include "thicket/common/lcm_log.h"
+#include "thicket/common/number_text.h"
 #include "thicket/sim/world.h"
 #include "trials.h"
 
@@ -117,6 +118,12 @@ int onlineCpus() {
   return cpus > 0 ? static_cast<int>(cpus) : 1;
 }
 
+std::vector<std::string> experimentNames() {
+  std::vector<std::string> names;
+  for (const ExperimentName& e : kExperimentNames) names.emplace_back(e.name);
+  return names;
+}
+
 // "a,b," -> {"a", "b", ""}; "" -> {}.
 std::vector<std::string> split(const std::string& text, char separator = ',') {
   std::vector<std::string> items;
@@ -126,114 +133,16 @@ std::vector<std::string> split(const std::string& text, char separator = ',') {
   return items;
 }
 
-// A comma list whose every item `check` accepts; duplicates are dropped.
-FlagError setList(std::vector<std::string>& value, const std::string& flag, const std::string& text,
-                  const std::function<FlagError(const std::string&)>& check) {
-  value.clear();
-  for (const std::string& item : split(text)) {
-    if (item.empty()) return flag + " '" + text + "' has an empty item";
-    if (FlagError error = check(item)) return error;
-    if (std::find(value.begin(), value.end(), item) == value.end()) value.push_back(item);
-  }
-  return {};
-}
-
-std::function<FlagError(const std::string&)> oneOf(const std::string& what,
-                                                   const std::vector<std::string>& known) {
-  return [what, known](const std::string& item) -> FlagError {
-    if (std::find(known.begin(), known.end(), item) != known.end()) return {};
-    return "unknown " + what + " '" + item + "' (known: " + joined(known) + ")";
-  };
-}
-
-std::vector<std::string> experimentNames() {
-  std::vector<std::string> names;
-  for (const ExperimentName& e : kExperimentNames) names.emplace_back(e.name);
-  return names;
-}
-
-FlagError setShard(ExperimentOptions& o, const std::string& text) {
-  const std::string message =
-      "--shard must be i/N with 0 <= i < N (e.g. 0/4 ... 3/4), not '" + text + "'";
+// "i/N" with 0 <= i < N into the shard's index and count.
+bool parseShard(const std::string& text, int& index, int& count) {
   const size_t slash = text.find('/');
-  if (slash == std::string::npos) return message;
-  const std::optional<int> index = integerNumber<int>(text.substr(0, slash));
-  const std::optional<int> count = integerNumber<int>(text.substr(slash + 1));
-  if (!index || !count || *count < 1 || *index < 0 || *index >= *count) return message;
-  o.shard_index = *index;
-  o.shard_count = *count;
-  return {};
-}
-
-const std::map<std::string, FlagSetter<ExperimentOptions>>& experimentSetters() {
-  using O = ExperimentOptions;
-  using S = const std::string&;
-  static const std::map<std::string, FlagSetter<O>> table = {
-      {"--out",
-       [](O& o, S v) -> FlagError {
-         o.out = v;
-         return {};
-       }},
-      {"--experiment",
-       [](O& o, S v) {
-         return setList(o.experiments, "--experiment", v, oneOf("experiment", experimentNames()));
-       }},
-      {"--scenario",
-       [](O& o, S v) {
-         return setList(o.scenarios, "--scenario", v, [](S) -> FlagError { return {}; });
-       }},
-      {"--density",
-       [](O& o, S v) -> FlagError {
-         o.densities.clear();
-         for (const std::string& item : split(v)) {
-           double density = 0;
-           if (FlagError error = parseNumber(density, "--density", item)) return error;
-           o.densities.push_back(density);
-         }
-         return {};
-       }},
-      {"--method",
-       [](O& o, S v) { return setList(o.methods, "--method", v, oneOf("method", methodNames())); }},
-      {"--goal-finding",
-       [](O& o, S v) {
-         return setList(o.goal_findings, "--goal-finding", v,
-                        oneOf("goal-finding variant", goalFindingNames()));
-       }},
-      {"--trials",
-       [](O& o, S v) {
-         int trials = 0;
-         FlagError error = parseInteger(trials, "--trials", v, 1);
-         if (!error) o.trials = trials;
-         return error;
-       }},
-      {"--replans",
-       [](O& o, S v) {
-         int replans = 0;
-         FlagError error = parseInteger(replans, "--replans", v, 1);
-         if (!error) o.replans = replans;
-         return error;
-       }},
-      {"--seed-base",
-       [](O& o, S v) { return parseInteger<int64_t>(o.seed_base, "--seed-base", v, 0); }},
-      {"--jobs", [](O& o, S v) { return parseInteger(o.jobs, "--jobs", v, 1); }},
-      {"--shard", setShard},
-      {"--record",
-       [](O& o, S v) -> FlagError {
-         try {
-           std::regex check(v);
-         } catch (const std::regex_error& e) {
-           return "--record '" + v + "' is not a regular expression: " + e.what();
-         }
-         o.record = v;
-         return {};
-       }},
-      {"--worlds-dir",
-       [](O& o, S v) -> FlagError {
-         o.worlds_dir = v;
-         return {};
-       }},
-  };
-  return table;
+  if (slash == std::string::npos) return false;
+  const std::optional<int> i = integerNumber<int>(text.substr(0, slash));
+  const std::optional<int> n = integerNumber<int>(text.substr(slash + 1));
+  if (!i || !n || *n < 1 || *i < 0 || *i >= *n) return false;
+  index = *i;
+  count = *n;
+  return true;
 }
 
 bool selects(const std::vector<std::string>& filter, const std::string& item) {
@@ -262,7 +171,7 @@ std::vector<const Plan*> selectedPlans(const ExperimentOptions& options) {
 
 // A filter value that matches no configuration of the selected experiments is a mistake (a
 // typo, or a density an experiment does not fly), not a reason to run nothing quietly.
-FlagError checkFilters(const ExperimentOptions& options) {
+std::optional<std::string> checkFilters(const ExperimentOptions& options) {
   const std::vector<const Plan*> selected = selectedPlans(options);
   if (selected.empty() && !(options.scenarios.empty() && options.densities.empty() &&
                             options.methods.empty() && options.goal_findings.empty())) {
@@ -316,7 +225,8 @@ FlagError checkFilters(const ExperimentOptions& options) {
   return {};
 }
 
-std::string experimentUsage() {
+void addExperimentFlags(CLI::App& app, ExperimentOptions& o) {
+  using cli::nonEmpty;
   const auto defaults = [](int Plan::*member) {
     std::string text;
     for (const Plan& plan : plans()) {
@@ -325,58 +235,88 @@ std::string experimentUsage() {
     }
     return text;
   };
-  return "usage: thicket-bench experiment --out DIR [options]\n"
-         "  Flies the trials of the benchmark's experiments (docs/benchmark.md) with the real "
-         "nodes on\n"
-         "  memq://, on parallel threads, and writes DIR/trials.csv (one row per trial),\n"
-         "  DIR/paths/<key>.csv, DIR/run_log.csv and the report. Every finished trial is kept at\n"
-         "  once in DIR/rows/, so running the same command again resumes: trials already there\n"
-         "  are skipped, trials that could not run are tried again.\n"
-         "  A trial's key is experiment/scenario/d<density>/method/goal_finding/sensor/s<seed>,\n"
-         "  e.g. E2/paper/d0.2/random/soft/depth/s7; its files are named by the key with '-'.\n"
-         "  --out DIR            the output folder (required)\n"
-         "  --experiment LIST    comma list of E1, E2, E3 (E2's trials), E4, T1 (E4's trials),\n"
-         "                       E5, E6 (default: all)\n"
-         "  --scenario LIST      only these scenarios (E1, E6: paper; E2: paper, eth;\n"
-         "                       E4: forest50)\n"
-         "  --density LIST       only these densities (E1, E2: 0.05 ... 0.5; E4: 0.1, 0.2;\n"
-         "                       E6: 0.2)\n"
-         "  --method LIST        only these methods:\n"
-         "                       " +
-         joined(methodNames()) +
-         "\n"
-         "  --goal-finding LIST  only these goal-finding variants: " +
-         joined(goalFindingNames()) +
-         " (E2, E4, E6: soft)\n"
-         "  --trials N           trials per configuration (default " +
-         defaults(&Plan::trials) +
-         ")\n"
-         "  --replans R          replan limit of every trial (default " +
-         defaults(&Plan::replans) +
-         ")\n"
-         "  --seed-base B        trial t flies the world of seed B+t (default 0)\n"
-         "  --jobs J             trials run on J threads (default: the online CPUs, " +
-         std::to_string(onlineCpus()) +
-         " here)\n"
-         "  --shard i/N          run only the trials at positions i, i+N, i+2N ... of the trial\n"
-         "                       list (0 <= i < N); give every shard the same selection flags,\n"
-         "                       then thicket-bench merge the output folders\n"
-         "  --record REGEX       keep the LCM log of the trials run whose key contains a match:\n"
-         "                       DIR/logs/<key>.lcm\n"
-         "  --worlds-dir DIR     where scenario names are looked up (default: the source tree's\n"
-         "                       config/worlds)\n";
+  app.add_option("--out", o.out, "the output folder")->required()->check(nonEmpty());
+  app.add_option("--experiment", o.experiments,
+                 "comma list of E1, E2, E3 (E2's trials), E4, T1 (E4's trials), E5, E6 "
+                 "(default: all)")
+      ->delimiter(',')
+      ->check(CLI::IsMember(experimentNames()));
+  app.add_option("--scenario", o.scenarios,
+                 "only these scenarios (E1, E6: paper; E2: paper, eth; E4: forest50)")
+      ->delimiter(',')
+      ->check(nonEmpty());
+  app.add_option("--density", o.densities,
+                 "only these densities (E1, E2: 0.05 ... 0.5; E4: 0.1, 0.2; E6: 0.2)")
+      ->delimiter(',')
+      ->check(cli::number(0));
+  app.add_option("--method", o.methods, "only these methods: " + joined(methodNames()))
+      ->delimiter(',')
+      ->check(CLI::IsMember(methodNames()));
+  app.add_option(
+         "--goal-finding", o.goal_findings,
+         "only these goal-finding variants: " + joined(goalFindingNames()) + " (E2, E4, E6: soft)")
+      ->delimiter(',')
+      ->check(CLI::IsMember(goalFindingNames()));
+  app.add_option("--trials", o.trials,
+                 "trials per configuration (default " + defaults(&Plan::trials) + ")")
+      ->check(cli::integer(1, std::numeric_limits<int>::max()));
+  app.add_option("--replans", o.replans,
+                 "replan limit of every trial (default " + defaults(&Plan::replans) + ")")
+      ->check(cli::integer(1, std::numeric_limits<int>::max()));
+  app.add_option("--seed-base", o.seed_base, "trial t flies the world of seed B+t")
+      ->check(cli::integer(0))
+      ->capture_default_str();
+  app.add_option("--jobs", o.jobs,
+                 "trials run on J threads (default: the online CPUs, " +
+                     std::to_string(onlineCpus()) + " here)")
+      ->check(cli::integer(1, 1024));
+  app.add_option("--shard", o.shard,
+                 "i/N: run only the trials at positions i, i+N, i+2N ... of the trial list (0 <= "
+                 "i < N); give every shard the same selection flags, then thicket-bench merge "
+                 "the output folders")
+      ->check(CLI::Validator(
+          [](const std::string& text) -> std::string {
+            int index = 0, count = 0;
+            return parseShard(text, index, count)
+                       ? ""
+                       : "must be i/N with 0 <= i < N (e.g. 0/4 ... 3/4), not '" + text + "'";
+          },
+          "i/N"));
+  app.add_option("--record", o.record,
+                 "keep the LCM log of the trials run whose key contains a match of this regular "
+                 "expression: DIR/logs/<key>.lcm")
+      ->check(CLI::Validator(
+          [](const std::string& text) -> std::string {
+            try {
+              std::regex check(text);
+            } catch (const std::regex_error& e) {
+              return "'" + text + "' is not a regular expression: " + e.what();
+            }
+            return {};
+          },
+          "REGEX"));
+  app.add_option("--worlds-dir", o.worlds_dir, "where scenario names are looked up")
+      ->check(nonEmpty())
+      ->capture_default_str();
 }
 
-std::string mergeUsage() {
-  return "usage: thicket-bench merge --out DIR IN_DIR...\n"
-         "  Gathers the trials of output folders of thicket-bench experiment (shards run on\n"
-         "  other machines) into DIR: their rows (each trial once; one that ran is preferred to\n"
-         "  one that could not) in DIR/rows/merged.csv with the trials' paths and logs, their run\n"
-         "  log lines, then writes DIR/trials.csv, a DIR/run_log.csv line and the report.\n"
-         "  Refuses rows files written with other columns (also those of an older thicket-bench\n"
-         "  without the oracle columns solvable_collision_radius, bottleneck_m, needs_overflight\n"
-         "  or the dynamic obstacle's obstacle_clearance_m, blocked_cycles).\n";
-}
+constexpr const char* kExperimentHelp =
+    "thicket-bench experiment: flies the trials of the benchmark's experiments\n"
+    "(docs/benchmark.md) with the real nodes on memq://, on parallel threads, and writes\n"
+    "DIR/trials.csv (one row per trial), DIR/paths/<key>.csv, DIR/run_log.csv and the report.\n"
+    "Every finished trial is kept at once in DIR/rows/, so running the same command again\n"
+    "resumes: trials already there are skipped, trials that could not run are tried again.\n"
+    "A trial's key is experiment/scenario/d<density>/method/goal_finding/sensor/s<seed>, e.g.\n"
+    "E2/paper/d0.2/random/soft/depth/s7; its files are named by the key with '-'.";
+
+constexpr const char* kMergeHelp =
+    "thicket-bench merge: gathers the trials of output folders of thicket-bench experiment\n"
+    "(shards run on other machines) into DIR: their rows (each trial once; one that ran is\n"
+    "preferred to one that could not) in DIR/rows/merged.csv with the trials' paths and logs,\n"
+    "their run log lines, then writes DIR/trials.csv, a DIR/run_log.csv line and the report.\n"
+    "Refuses rows files written with other columns (also those of an older thicket-bench\n"
+    "without the oracle columns solvable_collision_radius, bottleneck_m, needs_overflight or\n"
+    "the dynamic obstacle's obstacle_clearance_m, blocked_cycles).";
 
 }  // namespace
 
@@ -384,12 +324,20 @@ Expected<ExperimentOptions> parseExperimentOptions(const std::vector<std::string
   ExperimentOptions options;
   options.worlds_dir = std::string(THICKET_SOURCE_DIR) + "/config/worlds";
   options.jobs = onlineCpus();
-  const auto given = applyFlags(args, experimentSetters(), options);
-  if (!given) return unexpected(given.error());
-  if (options.help) return options;
-  if (!given->count("--out")) return unexpected("experiment needs --out");
-  if (FlagError error = checkFilters(options)) return unexpected(*error);
-  return options;
+  auto parsed = parseCommand<ExperimentOptions>("experiment", kExperimentHelp, args,
+                                                addExperimentFlags, options);
+  if (!parsed || !parsed->help.empty()) return parsed;
+  if (!parsed->shard.empty()) parseShard(parsed->shard, parsed->shard_index, parsed->shard_count);
+  for (auto* list : {&parsed->experiments, &parsed->scenarios, &parsed->methods,
+                     &parsed->goal_findings}) {  // duplicates are dropped, the order kept
+    std::vector<std::string> unique;
+    for (const std::string& item : *list) {
+      if (std::find(unique.begin(), unique.end(), item) == unique.end()) unique.push_back(item);
+    }
+    *list = unique;
+  }
+  if (auto error = checkFilters(*parsed)) return unexpected(*error);
+  return parsed;
 }
 
 std::vector<TrialSpec> trialList(const ExperimentOptions& options) {
@@ -1044,21 +992,15 @@ bool finish(const std::string& command, const std::string& dir) {
   }
 }
 
-int failUsage(const std::string& command, const std::string& message) {
-  std::fprintf(stderr, "thicket-bench %s: %s\n(thicket-bench %s --help for usage)\n",
-               command.c_str(), message.c_str(), command.c_str());
-  return 2;
-}
-
 }  // namespace
 
 int experimentCommand(const std::vector<std::string>& args) {
   const std::string command = "experiment";
   auto parsed = parseExperimentOptions(args);
-  if (!parsed) return failUsage(command, parsed.error());
+  if (!parsed) return usageError(command, parsed.error());
   const ExperimentOptions& options = *parsed;
-  if (options.help) {
-    std::fputs(experimentUsage().c_str(), stdout);
+  if (!options.help.empty()) {
+    std::fputs(options.help.c_str(), stdout);
     return 0;
   }
   const std::time_t started_utc = std::time(nullptr);
@@ -1069,7 +1011,7 @@ int experimentCommand(const std::vector<std::string>& args) {
   for (const TrialSpec& spec : list) scenarios.insert(spec.scenario);
   for (const std::string& scenario : scenarios) {
     if (auto spec = sim::loadScenario(scenario, options.worlds_dir); !spec) {
-      return failUsage(command, spec.error() + " (--worlds-dir " + options.worlds_dir + ")");
+      return usageError(command, spec.error() + " (--worlds-dir " + options.worlds_dir + ")");
     }
   }
   std::optional<std::regex> record;
@@ -1107,10 +1049,10 @@ int experimentCommand(const std::vector<std::string>& args) {
     if (kept == done_replans.end()) {
       to_run.push_back(&spec);
     } else if (kept->second != spec.replans) {
-      return failUsage(command, "--replans: " + options.out + "/rows holds " + spec.key() +
-                                    " flown with replan limit " + std::to_string(kept->second) +
-                                    ", this run asks for " + std::to_string(spec.replans) +
-                                    "; use another --out");
+      return usageError(command, "--replans: " + options.out + "/rows holds " + spec.key() +
+                                     " flown with replan limit " + std::to_string(kept->second) +
+                                     ", this run asks for " + std::to_string(spec.replans) +
+                                     "; use another --out");
     }
   }
   const size_t skipped = in_shard.size() - to_run.size();
@@ -1184,8 +1126,16 @@ namespace {
 
 struct MergeOptions {
   std::string out;
-  bool help = false;
+  std::vector<std::string> inputs;
+  std::string help;
 };
+
+void addMergeFlags(CLI::App& app, MergeOptions& o) {
+  app.add_option("--out", o.out, "the output folder")->required()->check(cli::nonEmpty());
+  app.add_option("IN_DIR", o.inputs, "output folders of thicket-bench experiment")
+      ->required()
+      ->check(cli::nonEmpty());
+}
 
 // Copies `from` over `to` unless they are the same file.
 void copyOver(const fs::path& from, const fs::path& to) {
@@ -1202,26 +1152,19 @@ void copyOver(const fs::path& from, const fs::path& to) {
 
 int mergeCommand(const std::vector<std::string>& args) {
   const std::string command = "merge";
-  const std::map<std::string, FlagSetter<MergeOptions>> setters = {
-      {"--out", [](MergeOptions& o, const std::string& v) -> FlagError {
-         o.out = v;
-         return {};
-       }}};
-  MergeOptions options;
-  std::vector<std::string> inputs;
-  const auto given = applyFlags(args, setters, options, &inputs);
-  if (!given) return failUsage(command, given.error());
-  if (options.help) {
-    std::fputs(mergeUsage().c_str(), stdout);
+  const auto parsed = parseCommand<MergeOptions>("merge", kMergeHelp, args, addMergeFlags);
+  if (!parsed) return usageError(command, parsed.error());
+  const MergeOptions& options = *parsed;
+  if (!options.help.empty()) {
+    std::fputs(options.help.c_str(), stdout);
     return 0;
   }
-  if (!given->count("--out")) return failUsage(command, "merge needs --out");
-  if (inputs.empty()) return failUsage(command, "merge needs at least one IN_DIR");
+  const std::vector<std::string>& inputs = options.inputs;
   for (const std::string& input : inputs) {
     if (!fs::is_directory(input + "/rows")) {
-      return failUsage(command, "IN_DIR " + input +
-                                    " has no rows/ folder: not an output folder of "
-                                    "thicket-bench experiment");
+      return usageError(command, "IN_DIR " + input +
+                                     " has no rows/ folder: not an output folder of "
+                                     "thicket-bench experiment");
     }
   }
   const std::time_t started_utc = std::time(nullptr);

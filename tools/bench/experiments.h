@@ -63,12 +63,13 @@ struct ExperimentOptions {
   std::optional<int> replans;  ///< overrides every experiment's replan limit
   int64_t seed_base = 0;
   int jobs = 1;
+  std::string shard;  ///< "i/N" as given (--shard), or empty
   int shard_index = 0;
   int shard_count = 1;
   std::string record;  ///< regex searched in trial keys; empty records nothing
   std::string worlds_dir;
   std::string out;
-  bool help = false;
+  std::string help;  ///< the --help text, when it was asked
 };
 
 /// Parses the flags after "experiment"; the error is a message for the user naming the flag

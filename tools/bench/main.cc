@@ -6,6 +6,7 @@
 //   thicket-bench subsampling --out DIR [...]                  experiment E5 alone
 //   thicket-bench clearance --out DIR [...]                    the ESDF's clearance error
 //   thicket-bench [--benchmark_filter=REGEX ...]              Google Benchmark (bench_*.cc)
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -15,21 +16,57 @@
 #include "clearance.h"
 #include "experiments.h"
 #include "subsampling.h"
+#include "thicket/common/cli.h"
 #include "trials.h"
 
-int main(int argc, char** argv) {
-  if (argc > 1) {
-    const std::string_view command = argv[1];
-    const std::vector<std::string> args(argv + 2, argv + argc);
-    if (command == "run") return thicket::bench::runCommand(args);
-    if (command == "experiment") return thicket::bench::experimentCommand(args);
-    if (command == "merge") return thicket::bench::mergeCommand(args);
-    if (command == "subsampling") return thicket::bench::subsamplingCommand(args);
-    if (command == "clearance") return thicket::bench::clearanceCommand(args);
-  }
+namespace {
+
+int microBenchmarks(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc == 1 || std::string_view(argv[1]).rfind("--benchmark", 0) == 0) {
+    return microBenchmarks(argc, argv);
+  }
+  struct Command {
+    const char* name;
+    const char* summary;
+    std::function<int(const std::vector<std::string>&)> run;
+  };
+  namespace bench = thicket::bench;
+  const Command commands[] = {
+      {"run", "trials of one configuration", bench::runCommand},
+      {"experiment", "the benchmark's experiments (resumable, shardable)",
+       bench::experimentCommand},
+      {"merge", "gathers shards' output folders", bench::mergeCommand},
+      {"subsampling", "experiment E5 alone", bench::subsamplingCommand},
+      {"clearance", "the ESDF's clearance error", bench::clearanceCommand},
+  };
+  CLI::App app(
+      "thicket-bench: the benchmark driver (docs/benchmark.md) and the module cores'\n"
+      "micro-benchmarks. `thicket-bench COMMAND --help` describes a command's flags.",
+      "thicket-bench");
+  app.footer(
+      "Without a command, or with --benchmark_* flags (e.g. --benchmark_filter=REGEX), it runs\n"
+      "the Google Benchmark micro-benchmarks.");
+  app.require_subcommand(1);
+  std::vector<CLI::App*> apps;
+  for (const Command& command : commands) {
+    CLI::App* sub = app.add_subcommand(command.name, command.summary);
+    sub->prefix_command();  // its arguments, --help included, go to the command's own parser
+    sub->set_help_flag();
+    apps.push_back(sub);
+  }
+  if (auto exit_code = thicket::cli::parse(app, argc, argv)) return *exit_code;
+  for (size_t i = 0; i < apps.size(); ++i) {
+    if (apps[i]->parsed()) return commands[i].run(apps[i]->remaining());
+  }
+  return 2;  // require_subcommand(1) leaves no other case
 }

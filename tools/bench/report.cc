@@ -26,6 +26,7 @@
 #include "csv.h"
 #include "experiments.h"
 #include "flags.h"
+#include "thicket/common/number_text.h"
 #include "thicket/common/statistics.h"
 #include "thicket/sim/dynamic_obstacle.h"
 #include "thicket/sim/world.h"

@@ -36,65 +36,47 @@ std::string defaultWorldsDir() {
 
 // ---- flags ----
 
-std::string usage() {
-  return "usage: thicket-bench subsampling --out DIR [options]\n"
-         "  Experiment E5: the exploration gain's error and speed-up when only a fraction of the\n"
-         "  frustum points is checked. Flies N maps with the real graph (local_exploration; map i\n"
-         "  on the world of seed B+i), draws camera poses near the flown paths (up to 1 m\n"
-         "  sideways, 0.5 m up or down, any heading) and compares every fraction's gain with the\n"
-         "  exact one (fraction 1). Prints the table and writes DIR/e5_subsampling.csv:\n"
-         "  fraction,stride,poses,mean_abs_error,p95_abs_error,max_abs_error,median_us,speedup\n"
-         "  --maps N          flights whose maps are used, >= 1 (default 4)\n"
-         "  --poses N         camera poses, spread evenly over the maps, >= 1 (default 1000)\n"
-         "  --fractions LIST  comma-separated fractions in (0, 1], each checking every\n"
-         "                    round(1/fraction)-th point (default 0.01,0.02,0.05,0.1,0.2,0.5,1)\n"
-         "  --scenario S      a scenario name in the worlds dir or a .yaml path (default "
-         "forest50)\n"
-         "  --density D       cylinders per m^2 of the obstacle region (default 0.2)\n"
-         "  --seed-base B     the world seed of map 0, and the seed of the poses (default 0)\n"
-         "  --replans R       replan limit of each flight, >= 1 (default 120)\n"
-         "  --jobs J          flights run on J threads (default 1); the times are measured on\n"
-         "                    one thread after the flights\n"
-         "  --worlds-dir DIR  where scenario names are looked up (default: the source tree's\n"
-         "                    config/worlds)\n"
-         "  --out DIR         the output folder\n";
-}
-
-FlagError parseFractions(std::vector<double>& fractions, const std::string& text) {
-  std::vector<double> parsed;
-  size_t start = 0;
-  while (true) {
-    const size_t comma = text.find(',', start);
-    const std::string item = text.substr(start, comma == std::string::npos ? comma : comma - start);
-    const std::optional<double> value = finiteNumber(item);
-    if (!value) return "--fractions '" + text + "': '" + item + "' is not a number";
-    parsed.push_back(*value);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  fractions = parsed;
-  return {};
-}
-
 // --density and --fractions take any finite number: their ranges are checked with the other
-// options (checkSubsamplingOptions, checkFractions).
-const std::map<std::string, FlagSetter<SubsamplingOptions>>& setters() {
-  using O = SubsamplingOptions;
-  using S = const std::string&;
-  static const std::map<std::string, FlagSetter<O>> table = {
-      {"--maps", [](O& o, S v) { return parseInteger(o.maps, "--maps", v, 1); }},
-      {"--poses", [](O& o, S v) { return parseInteger(o.poses, "--poses", v, 1); }},
-      {"--fractions", [](O& o, S v) { return parseFractions(o.fractions, v); }},
-      {"--scenario", [](O& o, S v) { return (o.scenario = v, FlagError()); }},
-      {"--density", [](O& o, S v) { return parseAnyNumber(o.density, "--density", v); }},
-      {"--seed-base",
-       [](O& o, S v) { return parseInteger<int64_t>(o.seed_base, "--seed-base", v, 0); }},
-      {"--replans", [](O& o, S v) { return parseInteger(o.replans, "--replans", v, 1); }},
-      {"--jobs", [](O& o, S v) { return parseInteger(o.jobs, "--jobs", v, 1); }},
-      {"--worlds-dir", [](O& o, S v) { return (o.worlds_dir = v, FlagError()); }},
-      {"--out", [](O& o, S v) { return (o.out_dir = v, FlagError()); }},
-  };
-  return table;
+// options (checkSubsamplingOptions, checkFractions), also for options built in code.
+void addSubsamplingFlags(CLI::App& app, SubsamplingOptions& o) {
+  using cli::nonEmpty;
+  const int int_max = std::numeric_limits<int>::max();
+  app.footer(
+      "Prints the table and writes DIR/e5_subsampling.csv:\n"
+      "fraction,stride,poses,mean_abs_error,p95_abs_error,max_abs_error,median_us,speedup");
+  app.add_option("--maps", o.maps, "flights whose maps are used")
+      ->check(cli::integer(1, int_max))
+      ->capture_default_str();
+  app.add_option("--poses", o.poses, "camera poses, spread evenly over the maps")
+      ->check(cli::integer(1, int_max))
+      ->capture_default_str();
+  app.add_option("--fractions", o.fractions,
+                 "comma-separated fractions in (0, 1], each checking every round(1/fraction)-th "
+                 "point")
+      ->delimiter(',')
+      ->check(cli::number())
+      ->capture_default_str();
+  app.add_option("--scenario", o.scenario, "a scenario name in the worlds dir or a .yaml path")
+      ->check(nonEmpty())
+      ->capture_default_str();
+  app.add_option("--density", o.density, "cylinders per m^2 of the obstacle region")
+      ->check(cli::number())
+      ->capture_default_str();
+  app.add_option("--seed-base", o.seed_base, "the world seed of map 0, and the seed of the poses")
+      ->check(cli::integer(0))
+      ->capture_default_str();
+  app.add_option("--replans", o.replans, "replan limit of each flight")
+      ->check(cli::integer(1, int_max))
+      ->capture_default_str();
+  app.add_option("--jobs", o.jobs,
+                 "flights run on J threads; the times are measured on one thread after the "
+                 "flights")
+      ->check(cli::integer(1, 1024))
+      ->capture_default_str();
+  app.add_option("--worlds-dir", o.worlds_dir,
+                 "where scenario names are looked up (default: the source tree's config/worlds)")
+      ->check(nonEmpty());
+  app.add_option("--out", o.out_dir, "the output folder")->required()->check(nonEmpty());
 }
 
 // Why `fractions` cannot be measured, or nothing.
@@ -226,10 +208,7 @@ void printTable(const SubsamplingOptions& options, const std::vector<Subsampling
 }
 
 int failUsage(const std::string& message) {
-  std::fprintf(stderr,
-               "thicket-bench subsampling: %s\n(thicket-bench subsampling --help for usage)\n",
-               message.c_str());
-  return 2;
+  return usageError("subsampling", message);
 }
 
 }  // namespace
@@ -254,11 +233,16 @@ std::optional<std::string> checkSubsamplingOptions(const SubsamplingOptions& opt
 }
 
 Expected<SubsamplingOptions> parseSubsamplingOptions(const std::vector<std::string>& args) {
-  SubsamplingOptions options;
-  const auto given = applyFlags(args, setters(), options);
-  if (!given) return unexpected(given.error());
-  if (options.help) return options;
-  if (auto error = checkSubsamplingOptions(options)) return unexpected(*error);
+  auto options = parseCommand<SubsamplingOptions>(
+      "subsampling",
+      "thicket-bench subsampling: experiment E5, the exploration gain's error and speed-up when\n"
+      "only a fraction of the frustum points is checked. Flies N maps with the real graph\n"
+      "(local_exploration; map i on the world of seed B+i), draws camera poses near the flown\n"
+      "paths (up to 1 m sideways, 0.5 m up or down, any heading) and compares every fraction's\n"
+      "gain with the exact one (fraction 1).",
+      args, addSubsamplingFlags);
+  if (!options || !options->help.empty()) return options;
+  if (auto error = checkSubsamplingOptions(*options)) return unexpected(*error);
   return options;
 }
 
@@ -419,8 +403,8 @@ Expected<std::vector<SubsamplingRow>> runSubsampling(const SubsamplingOptions& o
 int subsamplingCommand(const std::vector<std::string>& args) {
   auto options = parseSubsamplingOptions(args);
   if (!options) return failUsage(options.error());
-  if (options->help) {
-    std::fputs(usage().c_str(), stdout);
+  if (!options->help.empty()) {
+    std::fputs(options->help.c_str(), stdout);
     return 0;
   }
   const std::string worlds_dir =

@@ -37,7 +37,7 @@ struct SubsamplingOptions {
   int jobs = 1;            ///< flights run on this many threads
   std::string worlds_dir;  ///< empty: the source tree's config/worlds
   std::string out_dir;     ///< where e5_subsampling.csv goes
-  bool help = false;
+  std::string help;        ///< the --help text, when it was asked
 };
 
 /// One row of e5_subsampling.csv.

@@ -137,95 +137,55 @@ const Row& findRow(const Row (&table)[N], const std::string& name, const char* w
                               "' (known: " + rowNames(table) + ")");
 }
 
-std::string usage() {
-  return "usage: thicket-bench run --density D --trials N --out DIR [options]\n"
-         "  Runs N trials of one configuration, trial i on the world of seed B+i, with the real\n"
-         "  nodes on memq:// in this process. Writes DIR/trials.csv (one row per trial) and\n"
-         "  DIR/paths/<trial>.csv (the executed path at 0.01 s: t, x, y, z, yaw).\n"
-         "  --scenario S      a scenario name in the worlds dir or a .yaml path (default paper)\n"
-         "  --density D       cylinders per m^2 of the obstacle region\n"
-         "  --method M        goal-selection strategy: " +
-         rowNames(kMethods) +
-         " (default none)\n"
-         "  --goal-finding G  " +
-         rowNames(kGoalFindings) +
-         " (soft: gradient + soft goal; default soft)\n"
-         "  --sensor S        " +
-         rowNames(kSensors) +
-         " (stereo: rendered pairs through thicket-stereo-depth; default depth)\n"
-         "  --dynamic-obstacle on|off  the simulator's dynamic obstacle with its default options:\n"
-         "                    a cylinder that appears on the committed path (default off)\n"
-         "  --trials N        number of trials, >= 1\n"
-         "  --seed-base B     the seed of trial 0 (default 0)\n"
-         "  --replans R       replan limit of a trial (default 60)\n"
-         "  --jobs J          trials run on J threads (default 1)\n"
-         "  --worlds-dir DIR  where scenario names are looked up (default: the source tree's\n"
-         "                    config/worlds)\n"
-         "  --config DIR      the graph's option files, DIR/<module>.yaml for vio_bridge, mapper,\n"
-         "                    local_planner, explorer and stereo_depth (default: the source\n"
-         "                    tree's config/sim, what the simulation sheets run)\n"
-         "  --out DIR         the output folder\n"
-         "       thicket-bench [--benchmark_filter=REGEX ...]: the module micro-benchmarks\n";
-}
-
-// ---- flags ----
-
-FlagError setText(std::string& value, const std::string& text) {
-  value = text;
-  return {};
-}
-
 template <class Row, size_t N>
-FlagError setChoice(std::string& value, const std::string& what, const Row (&table)[N],
-                    const std::string& text) {
-  try {
-    value = findRow(table, text, what.c_str()).name;
-    return {};
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
+std::vector<std::string> rowNameList(const Row (&table)[N]) {
+  std::vector<std::string> names;
+  for (const Row& row : table) names.emplace_back(row.name);
+  return names;
 }
 
-using Setter = FlagSetter<RunOptions>;
-
-const std::map<std::string, Setter>& setters() {
-  static const std::map<std::string, Setter> table = {
-      {"--scenario", [](RunOptions& o, const std::string& v) { return setText(o.scenario, v); }},
-      {"--density",
-       [](RunOptions& o, const std::string& v) { return parseNumber(o.density, "--density", v); }},
-      {"--method", [](RunOptions& o,
-                      const std::string& v) { return setChoice(o.method, "method", kMethods, v); }},
-      {"--goal-finding",
-       [](RunOptions& o, const std::string& v) {
-         return setChoice(o.goal_finding, "goal-finding variant", kGoalFindings, v);
-       }},
-      {"--sensor", [](RunOptions& o,
-                      const std::string& v) { return setChoice(o.sensor, "sensor", kSensors, v); }},
-      {"--trials", [](RunOptions& o,
-                      const std::string& v) { return parseInteger(o.trials, "--trials", v, 1); }},
-      {"--seed-base",
-       [](RunOptions& o, const std::string& v) {
-         return parseInteger<int64_t>(o.seed_base, "--seed-base", v, 0);
-       }},
-      {"--replans",
-       [](RunOptions& o, const std::string& v) {
-         return parseInteger(o.replans, "--replans", v, 1);
-       }},
-      {"--jobs",
-       [](RunOptions& o, const std::string& v) { return parseInteger(o.jobs, "--jobs", v, 1); }},
-      {"--dynamic-obstacle",
-       [](RunOptions& o, const std::string& v) -> FlagError {
-         if (v != "on" && v != "off")
-           return "--dynamic-obstacle must be on or off, not '" + v + "'";
-         o.dynamic_obstacle = v == "on";
-         return {};
-       }},
-      {"--worlds-dir",
-       [](RunOptions& o, const std::string& v) { return setText(o.worlds_dir, v); }},
-      {"--config", [](RunOptions& o, const std::string& v) { return setText(o.config_dir, v); }},
-      {"--out", [](RunOptions& o, const std::string& v) { return setText(o.out, v); }},
-  };
-  return table;
+void addRunFlags(CLI::App& app, RunOptions& o) {
+  using cli::nonEmpty;
+  app.footer("       thicket-bench [--benchmark_filter=REGEX ...]: the module micro-benchmarks");
+  app.add_option("--scenario", o.scenario, "a scenario name in the worlds dir or a .yaml path")
+      ->check(nonEmpty())
+      ->capture_default_str();
+  app.add_option("--density", o.density, "cylinders per m^2 of the obstacle region")
+      ->required()
+      ->check(cli::number(0));
+  app.add_option("--method", o.method, "goal-selection strategy: " + rowNames(kMethods))
+      ->check(CLI::IsMember(rowNameList(kMethods)))
+      ->capture_default_str();
+  app.add_option("--goal-finding", o.goal_finding,
+                 rowNames(kGoalFindings) + " (soft: gradient + soft goal)")
+      ->check(CLI::IsMember(rowNameList(kGoalFindings)))
+      ->capture_default_str();
+  app.add_option("--sensor", o.sensor,
+                 rowNames(kSensors) + " (stereo: rendered pairs through thicket-stereo-depth)")
+      ->check(CLI::IsMember(rowNameList(kSensors)))
+      ->capture_default_str();
+  cli::addSwitch(app, "--dynamic-obstacle", o.dynamic_obstacle,
+                 "the simulator's dynamic obstacle with its default options: a cylinder that "
+                 "appears on the committed path");
+  app.add_option("--trials", o.trials, "number of trials")->required()->check(cli::integer(1));
+  app.add_option("--seed-base", o.seed_base, "the seed of trial 0")
+      ->check(cli::integer(0))
+      ->capture_default_str();
+  app.add_option("--replans", o.replans, "replan limit of a trial")
+      ->check(cli::integer(1, std::numeric_limits<int>::max()))
+      ->capture_default_str();
+  app.add_option("--jobs", o.jobs, "trials run on J threads")
+      ->check(cli::integer(1, 1024))
+      ->capture_default_str();
+  app.add_option("--worlds-dir", o.worlds_dir, "where scenario names are looked up")
+      ->check(nonEmpty())
+      ->capture_default_str();
+  app.add_option("--config", o.config_dir,
+                 "the graph's option files, DIR/<module>.yaml for vio_bridge, mapper, "
+                 "local_planner, explorer and stereo_depth (default: config/sim, what the "
+                 "simulation sheets run)")
+      ->check(nonEmpty());
+  app.add_option("--out", o.out, "the output folder")->required()->check(nonEmpty());
 }
 
 }  // namespace
@@ -233,13 +193,12 @@ const std::map<std::string, Setter>& setters() {
 Expected<RunOptions> parseRunOptions(const std::vector<std::string>& args) {
   RunOptions options;
   options.worlds_dir = std::string(THICKET_SOURCE_DIR) + "/config/worlds";
-  const auto given = applyFlags(args, setters(), options);
-  if (!given) return unexpected(given.error());
-  if (options.help) return options;
-  for (const char* required : {"--density", "--trials", "--out"}) {
-    if (!given->count(required)) return unexpected(std::string("run needs ") + required);
-  }
-  return options;
+  return parseCommand<RunOptions>(
+      "run",
+      "thicket-bench run: runs N trials of one configuration, trial i on the world of seed B+i, "
+      "with the real nodes on memq:// in this process. Writes DIR/trials.csv (one row per "
+      "trial) and DIR/paths/<trial>.csv (the executed path at 0.01 s: t, x, y, z, yaw).",
+      args, addRunFlags, options);
 }
 
 namespace {
@@ -712,9 +671,7 @@ void printSummary(const RunOptions& options, const std::string& scenario,
 }
 
 int failUsage(const std::string& message) {
-  std::fprintf(stderr, "thicket-bench run: %s\n(thicket-bench run --help for usage)\n",
-               message.c_str());
-  return 2;
+  return usageError("run", message);
 }
 
 }  // namespace
@@ -722,8 +679,8 @@ int failUsage(const std::string& message) {
 int runCommand(const std::vector<std::string>& args) {
   auto options = parseRunOptions(args);
   if (!options) return failUsage(options.error());
-  if (options->help) {
-    std::fputs(usage().c_str(), stdout);
+  if (!options->help.empty()) {
+    std::fputs(options->help.c_str(), stdout);
     return 0;
   }
   auto spec = sim::loadScenario(options->scenario, options->worlds_dir);

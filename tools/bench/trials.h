@@ -47,8 +47,8 @@ struct RunOptions {
   std::string worlds_dir;
   /// Where the graph's option files are read (trialGraphOptions).
   std::string config_dir = simConfigDir();
-  std::string out;  ///< the output folder
-  bool help = false;
+  std::string out;   ///< the output folder
+  std::string help;  ///< the --help text, when it was asked
 };
 
 /// Parses the flags after "run"; the error is a message for the user (exit status 2).

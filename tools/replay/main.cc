@@ -146,7 +146,6 @@ int main(int argc, char** argv) {
 
   FlightSpec flight;
   std::string out;
-  std::string dynamic_obstacle = "off";
   CLI::App* record_command =
       app.add_subcommand("record", "fly one simulated trial, record it and check it replays");
   record_command->footer(kRecordHelp);
@@ -164,11 +163,8 @@ int main(int argc, char** argv) {
   record_command->add_option("--replans", flight.replans, "the replan limit [cycles]")
       ->check(thicket::cli::integer(1, 100000))
       ->capture_default_str();
-  record_command
-      ->add_option("--dynamic-obstacle", dynamic_obstacle,
-                   "the simulator's tree that appears on the committed path, as in E6")
-      ->check(CLI::IsMember({"on", "off"}))
-      ->capture_default_str();
+  thicket::cli::addSwitch(*record_command, "--dynamic-obstacle", flight.dynamic_obstacle,
+                          "the simulator's tree that appears on the committed path, as in E6");
 
   std::string logs_dir = thicket::replay::defaultLogsDir();
   CLI::App* references_command =
@@ -180,9 +176,6 @@ int main(int argc, char** argv) {
 
   if (auto exit_code = thicket::cli::parse(app, argc, argv)) return *exit_code;
   if (*check_command) return check(check_options);
-  if (*record_command) {
-    flight.dynamic_obstacle = dynamic_obstacle == "on";
-    return record(flight, out);
-  }
+  if (*record_command) return record(flight, out);
   return recordReferences(logs_dir);
 }

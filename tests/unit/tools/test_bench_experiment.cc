@@ -203,24 +203,23 @@ TEST(BenchExperiment, BadFlagsFailWithAMessageNamingTheFlag) {
     EXPECT_NE(result.output.find(message), std::string::npos) << args << ": " << result.output;
   };
   for (const char* shard : {"2/2", "-1/2", "a/2", "0/0", "1", "0/2x", "/2"}) {
-    fails(std::string("--shard ") + shard, "--shard must be i/N with 0 <= i < N");
+    fails(std::string("--shard ") + shard, "--shard: must be i/N with 0 <= i < N");
   }
-  fails("--experiment E2,E9", "unknown experiment 'E9' (known: E1, E2, E3, E4, E5, E6, T1)");
-  fails("--experiment E2,", "--experiment 'E2,' has an empty item");
-  fails("--method none,bogus", "unknown method 'bogus'");
-  fails("--goal-finding curve", "unknown goal-finding variant 'curve'");
+  fails("--experiment E2,E9", "--experiment: E9 not in {E1,E2,E3,E4,E5,E6,T1}");
+  fails("--method none,bogus", "--method: bogus not in {none,random,");
+  fails("--goal-finding curve", "--goal-finding: curve not in {line,gradient,soft}");
   fails("--experiment E1 --method random", "--method random is not a method of the selected");
   fails("--experiment E4 --density 0.3", "--density 0.3 is not a density of the selected");
   fails("--experiment E1,E6 --scenario eth", "--scenario eth is not a scenario of the selected");
   fails("--scenario forest", "--scenario forest is not a scenario of the selected");
   fails("--experiment E6 --density 0.1", "--density 0.1 is not a density of the selected");
   fails("--experiment E5 --density 0.1", "the selected experiments fly none");
-  fails("--density 0.1,x", "--density 'x' is not a non-negative number");
-  fails("--trials 0", "--trials must be an integer >= 1");
-  fails("--jobs 0", "--jobs must be an integer >= 1");
-  fails("--replans -3", "--replans must be an integer >= 1");
-  fails("--record '('", "--record '(' is not a regular expression");
-  fails("--fast", "unknown option --fast");
+  fails("--density 0.1,x", "--density: must be a number >= 0, not 'x'");
+  fails("--trials 0", "--trials: must be an integer >= 1, not '0'");
+  fails("--jobs 0", "--jobs: must be an integer in [1, 1024], not '0'");
+  fails("--replans -3", "--replans: must be an integer >= 1, not '-3'");
+  fails("--record '('", "--record: '(' is not a regular expression");
+  fails("--fast", "not expected: --fast");
   fails("--experiment E2 --scenario paper --worlds-dir " + tempDir("no_worlds"), "paper.yaml");
   EXPECT_EQ(bench("experiment --experiment E2").status, 2);
   EXPECT_FALSE(fs::exists(out));
@@ -230,15 +229,15 @@ TEST(BenchExperiment, BadFlagsFailWithAMessageNamingTheFlag) {
     EXPECT_EQ(result.status, 2) << args << ": " << result.output;
     EXPECT_NE(result.output.find(message), std::string::npos) << args << ": " << result.output;
   };
-  merge_fails("--out " + out, "merge needs at least one IN_DIR");
-  merge_fails(tempDir("a"), "merge needs --out");
+  merge_fails("--out " + out, "IN_DIR is required");
+  merge_fails(tempDir("a"), "--out is required");
   merge_fails("--out " + out + " " + tempDir("nowhere"), "has no rows/ folder");
   EXPECT_FALSE(fs::exists(out));
 
   for (const char* command : {"experiment", "merge"}) {
     const CliResult help = bench(std::string(command) + " --help");
     EXPECT_EQ(help.status, 0) << help.output;
-    EXPECT_NE(help.output.find(std::string("usage: thicket-bench ") + command), std::string::npos)
+    EXPECT_NE(help.output.find(std::string("Usage: thicket-bench ") + command), std::string::npos)
         << help.output;
   }
 }
@@ -445,9 +444,10 @@ TEST_F(BenchExperimentRun, ShardsOnOneThreadMergeIntoTheRowsOfOneRunOnTwo) {
 TEST_F(BenchExperimentRun, RecordKeepsTheLogOfTheChosenTrials) {
   ASSERT_EQ(reference().status, 0) << reference().output;
   const std::string out = tempDir("recorded");
-  const CliResult run =
-      bench("experiment " + kSelection +
-            " --method local_exploration --record 'local_exploration.*s1$' " + "--out " + out);
+  const CliResult run = bench(
+      "experiment --experiment E2 --scenario paper --method local_exploration --density 0.3 "
+      "--trials 2 --replans 20 --record 'local_exploration.*s1$' --out " +
+      out);
   ASSERT_EQ(run.status, 0) << run.output;
   EXPECT_NE(run.output.find("keeping the logs of 1 trials"), std::string::npos) << run.output;
   const std::string kept = "E2/paper/d0.3/local_exploration/soft/depth/s1";

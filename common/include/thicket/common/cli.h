@@ -36,6 +36,10 @@ CLI::Validator nonEmpty();
 /// Sets `url` to that default.
 CLI::Option* addLcmUrl(CLI::App& app, std::string& url, bool with_short = false);
 
+/// An option `name` that takes on or off into `value` (its default shown in the help).
+CLI::Option* addSwitch(CLI::App& app, const std::string& name, bool& value,
+                       const std::string& help);
+
 /// `--lcm-url URL` and `--config FILE`, the flags every module node takes.
 void addNodeFlags(CLI::App& app, NodeArgs& args);
 
