@@ -258,4 +258,38 @@ Expected<DepthFile> readDepthPngMm(const std::string& path) {
   return out;
 }
 
+std::string writePfm(const std::string& path, int width, int height,
+                     const std::vector<float>& values) {
+  if (width < 1 || height < 1 || values.size() != static_cast<size_t>(width) * height) {
+    return "cannot write " + path + ": the image has the wrong size";
+  }
+  const cv::Mat image(height, width, CV_32FC1, const_cast<float*>(values.data()));
+  try {
+    if (!cv::imwrite(path, image)) return "cannot write " + path;
+  } catch (const cv::Exception& e) {
+    return "cannot write " + path + ": " + e.err;
+  }
+  return {};
+}
+
+Expected<PfmImage> readPfm(const std::string& path) {
+  cv::Mat image;
+  try {
+    image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    return unexpected(path + ": cannot read: " + e.err);
+  }
+  if (image.empty())
+    return unexpected(path + ": cannot read the PFM (missing, damaged or not one)");
+  if (image.type() != CV_32FC1) {
+    return unexpected(path + ": " + std::to_string(image.channels()) +
+                      " channels; expected one float channel (Pf)");
+  }
+  PfmImage out;
+  out.width = image.cols;
+  out.height = image.rows;
+  out.values.assign(image.ptr<float>(0), image.ptr<float>(0) + image.total());
+  return out;
+}
+
 }  // namespace thicket::stereo_depth

@@ -330,13 +330,17 @@ TEST(Files, PfmAndDepthPngRoundTrip) {
   EXPECT_EQ(read->width, 3);
   EXPECT_EQ(read->height, 2);
   EXPECT_EQ(read->values, values);
-  // Rows are stored bottom to top: the first row in the file is the image's last.
+  // Rows are stored bottom to top: the first row in the file is the image's last. The header is
+  // three lines: "Pf", "<width> <height>", the scale (negative: little-endian).
   {
     std::ifstream in(pfm, std::ios::binary);
-    std::string header((std::istreambuf_iterator<char>(in)), {});
-    EXPECT_EQ(header.substr(0, 12), "Pf\n3 2\n-1.0\n");
+    std::string file((std::istreambuf_iterator<char>(in)), {});
+    EXPECT_EQ(file.substr(0, 7), "Pf\n3 2\n");
+    const size_t data = file.find('\n', 7) + 1;
+    EXPECT_EQ(file[7], '-');
+    ASSERT_EQ(file.size(), data + 6 * sizeof(float));
     float first;
-    std::memcpy(&first, header.data() + 12, 4);
+    std::memcpy(&first, file.data() + data, 4);
     EXPECT_EQ(first, 63.0625f);
   }
   // Truncated and colour files are refused.
@@ -348,9 +352,11 @@ TEST(Files, PfmAndDepthPngRoundTrip) {
   std::ofstream(pfm, std::ios::binary) << bytes.substr(0, bytes.size() - 3);
   auto truncated = readPfm(pfm);
   ASSERT_FALSE(truncated);
-  EXPECT_NE(truncated.error().find("truncated"), std::string::npos);
+  EXPECT_NE(truncated.error().find("cannot read the PFM"), std::string::npos) << truncated.error();
   std::ofstream(pfm, std::ios::binary) << "PF\n1 1\n-1.0\n" << std::string(12, '\0');
-  EXPECT_FALSE(readPfm(pfm));
+  auto colour = readPfm(pfm);
+  ASSERT_FALSE(colour);
+  EXPECT_NE(colour.error().find("3 channels"), std::string::npos) << colour.error();
   std::remove(pfm.c_str());
 
   const std::string png = ::testing::TempDir() + "/stereo_roundtrip.png";

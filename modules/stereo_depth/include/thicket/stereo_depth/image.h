@@ -71,12 +71,12 @@ struct DepthFile {
 };
 Expected<DepthFile> readDepthPngMm(const std::string& path);
 
-/// A single-channel float image as PFM ("Pf", little-endian, rows bottom to top as the format
+/// A single-channel float image as PFM (OpenCV's codec: "Pf", rows bottom to top as the format
 /// wants; `values` row-major top to bottom). Empty on success, else why not.
 std::string writePfm(const std::string& path, int width, int height,
                      const std::vector<float>& values);
 /// Reads a single-channel PFM of either byte order, rows returned top to bottom. Refuses colour
-/// PFMs ("PF"), bad headers and truncated data.
+/// PFMs ("PF") and what OpenCV cannot decode (bad headers, truncated data).
 struct PfmImage {
   int width = 0;
   int height = 0;
