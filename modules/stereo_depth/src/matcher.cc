@@ -40,23 +40,22 @@ void StereoMatcherOptions::declare(Params& p) {
 }
 
 Expected<StereoMatcherOptions> StereoMatcherOptions::validated() const {
-  if (num_disparities < 16 || num_disparities % 16 != 0) {
+  // Each field's own rule, as the YAML declaration above states it; then what relates fields.
+  if (const std::string error = paramsError(*this); !error.empty()) return unexpected(error);
+  if (num_disparities % 16 != 0) {
     return unexpected("num_disparities (" + std::to_string(num_disparities) +
                       ") must be a positive multiple of 16");
   }
-  if (block_size < 1 || block_size % 2 == 0) {
+  if (block_size % 2 == 0) {
     return unexpected("block_size (" + std::to_string(block_size) + ") must be odd and positive");
   }
   const int eff_p1 = p1 > 0 ? p1 : 8 * block_size * block_size;
   const int eff_p2 = p2 > 0 ? p2 : 32 * block_size * block_size;
-  if (p1 < 0 || p2 < 0 || eff_p2 <= eff_p1) {
+  if (eff_p2 <= eff_p1) {
     return unexpected("p2 (" + std::to_string(eff_p2) + ") must be greater than p1 (" +
                       std::to_string(eff_p1) + ")");
   }
-  if (mode != "sgbm" && mode != "hh" && mode != "3way") {
-    return unexpected("mode '" + mode + "' is not one of sgbm, hh, 3way");
-  }
-  if (!(min_range >= 0) || !(max_range > min_range) || !std::isfinite(max_range)) {
+  if (!(max_range > min_range)) {
     return unexpected("the range limits must satisfy 0 <= min_range < max_range < inf");
   }
   return *this;

@@ -70,6 +70,7 @@ std::string tooNarrow(int width, const StereoMatcherOptions& matcher) {
 
 Expected<StereoDepth> StereoDepth::create(const StereoDepthOptions& options,
                                           std::optional<StereoCalibration> calibration) {
+  if (const std::string error = paramsError(options); !error.empty()) return unexpected(error);
   auto matcher_options = options.matcher.validated();
   if (!matcher_options) return unexpected("matcher: " + matcher_options.error());
   std::optional<Rectifier> rectifier;

@@ -156,6 +156,25 @@ TEST(MatcherOptions, InconsistentOptionsAreRefused) {
   refused([](StereoMatcherOptions& o) { o.p1 = 500, o.p2 = 400; }, "p2");
   refused([](StereoMatcherOptions& o) { o.mode = "fast"; }, "mode");
   refused([](StereoMatcherOptions& o) { o.max_range = 0.1; }, "range");
+  // Each field's rule from its YAML declaration holds for options built in code too.
+  refused([](StereoMatcherOptions& o) { o.uniqueness_ratio = 200; }, "uniqueness_ratio");
+  refused([](StereoMatcherOptions& o) { o.block_size = 33; }, "block_size");
+  refused([](StereoMatcherOptions& o) { o.max_range = std::nan(""); }, "max_range");
+}
+
+TEST(PipelineOptions, EveryFieldKeepsItsYamlRule) {
+  const auto refused = [](auto mutate, const std::string& words) {
+    StereoDepthOptions o;
+    mutate(o);
+    auto pipeline = StereoDepth::create(o);
+    ASSERT_FALSE(pipeline) << words;
+    EXPECT_NE(pipeline.error().find(words), std::string::npos) << pipeline.error();
+  };
+  refused([](StereoDepthOptions& o) { o.outliers.stride = 0; }, "stride");
+  refused([](StereoDepthOptions& o) { o.outliers.stddev_mul = -1; }, "stddev_mul");
+  refused([](StereoDepthOptions& o) { o.rectify_alpha = 2; }, "rectify_alpha");
+  refused([](StereoDepthOptions& o) { o.rectified.fx = -376; }, "fx");
+  EXPECT_TRUE(StereoDepth::create(StereoDepthOptions{}));
 }
 
 stereo_image_t pairMessage(int64_t utime = 1000) {
