@@ -21,18 +21,27 @@ void MapperOptions::declare(Params& p) {
     Range::between(1, 1000));
 }
 
+namespace {
+
+// `options` when every field keeps the rule its YAML declaration states (also for options built
+// in code), else std::invalid_argument, before any part of the mapper is built from them.
+const MapperOptions& checked(const MapperOptions& options) {
+  if (const std::string error = paramsError(options); !error.empty()) {
+    throw std::invalid_argument("Mapper: " + error);
+  }
+  return options;
+}
+
+}  // namespace
+
 Mapper::Mapper(MapperOptions options, std::function<double()> now_ms)
-    : options_(options),
+    : options_(checked(options)),
       now_ms_(now_ms ? std::move(now_ms) : [] { return 0.0; }),
       tsdf_integrator_(options.tsdf),
       esdf_integrator_(options.esdf),
       tsdf_(options.voxel_size),
       esdf_(options.voxel_size),
-      poses_(options.poses) {
-  if (options.max_pending_frames < 1) {
-    throw std::invalid_argument("Mapper: max_pending_frames must be at least 1");
-  }
-}
+      poses_(options.poses) {}
 
 Timeline::Result Mapper::addPose(int64_t utime, const Pose& world_T_body) {
   Timeline::Result result = poses_.add(utime, world_T_body);
