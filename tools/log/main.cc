@@ -88,13 +88,12 @@ int plot(const std::string& log, const thicket::log::PlotOptions& options) {
   }
   if (const std::string error = checkReadable(log); !error.empty()) return fail(2, error);
 
-  const auto result = thicket::log::plotLog(log, options);
-  if (!result) return fail(1, result.error());
-  for (const std::string& note : result->notes) {
+  const auto scene = thicket::log::plotLog(log, options);
+  if (!scene) return fail(1, scene.error());
+  for (const std::string& note : scene->notes) {
     std::fprintf(stderr, "thicket-log: %s\n", note.c_str());
   }
-  std::printf("wrote %s (%dx%d px, %.1f px/m)\n", options.out.c_str(), options.size, options.size,
-              result->frame.pixels_per_metre);
+  std::printf("wrote %s (%dx%d px)\n", options.out.c_str(), options.size, options.size);
   return 0;
 }
 

@@ -1,16 +1,18 @@
 #include "plot.h"
 
+#include <unistd.h>
+
 #include <algorithm>
-#include <array>
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
-#include <unordered_map>
 
 #include <Eigen/Core>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
+#include <nlohmann/json.hpp>
 #include <thicket/goal_t.hpp>
 #include <thicket/map_update_t.hpp>
 #include <thicket/odometry_t.hpp>
@@ -19,6 +21,7 @@
 
 #include "log_events.h"
 #include "thicket/common/map_update.h"
+#include "thicket/common/subprocess.h"
 
 namespace thicket::log {
 namespace {
@@ -114,8 +117,6 @@ void collect(const LogEvent& event, MissionLog& log) {
 
 // ---- The map ------------------------------------------------------------------------------------
 
-enum class Cell : int8_t { kUnknown = 0, kFree = 1, kOccupied = 2 };
-
 Cell classify(const TsdfVoxel& voxel, double voxel_size) {
   if (!(voxel.weight > 0) || std::isnan(voxel.distance)) return Cell::kUnknown;
   return voxel.distance <= voxel_size ? Cell::kOccupied : Cell::kFree;
@@ -125,20 +126,6 @@ Cell classify(const EsdfVoxel& voxel, double voxel_size) {
   if (!voxel.observed) return Cell::kUnknown;
   return voxel.distance <= voxel_size ? Cell::kOccupied : Cell::kFree;
 }
-
-struct ColumnHash {
-  size_t operator()(const std::pair<int, int>& c) const {
-    return static_cast<size_t>(static_cast<int64_t>(c.first) * 73856093 ^
-                               static_cast<int64_t>(c.second) * 19349669);
-  }
-};
-
-// The top-down projection of a layer's z band: per voxel column, the "highest" class in the band.
-struct MapProjection {
-  double voxel_size = 0;
-  int64_t revision = -1;
-  std::unordered_map<std::pair<int, int>, Cell, ColumnHash> columns;
-};
 
 // The layer's last state: the updates of its newest map, applied in revision order (a full
 // snapshot replaces everything before it), projected over [z_min, z_max].
@@ -222,317 +209,105 @@ std::optional<MapProjection> projectMap(std::vector<map_update_t> updates,
   return projection;
 }
 
-// ---- Drawing ------------------------------------------------------------------------------------
-
-constexpr int kShift = 4;  // sub-pixel bits of OpenCV drawing coordinates
-constexpr double kSubPixel = 1 << kShift;
-
-cv::Scalar bgr(const Rgb& c) {
-  return {static_cast<double>(c.b), static_cast<double>(c.g), static_cast<double>(c.r)};
+PlotPoint plotPoint(const Eigen::Vector3d& p) {
+  return {p.x(), p.y(), p.z()};
 }
 
-// A pixel coordinate safe to round to int: far-off or non-finite values (a diverged estimate)
-// land well outside the image instead of overflowing.
-double onCanvas(double pixel) {
-  constexpr double kFar = 1e6;
-  return std::isfinite(pixel) ? std::clamp(pixel, -kFar, kFar) : kFar;
-}
-
-// OpenCV puts pixel k's centre at k; the frame puts it at k + 0.5.
-cv::Point subPixel(double column, double row) {
-  return {static_cast<int>(std::lround((onCanvas(column) - 0.5) * kSubPixel)),
-          static_cast<int>(std::lround((onCanvas(row) - 0.5) * kSubPixel))};
-}
-
-struct Canvas {
-  cv::Mat image;
-  PlotFrame frame;
-  int line = 3;    // path thickness [px]
-  int marker = 8;  // marker radius [px]
-  double font = 0.5;
-  int text = 1;  // text thickness
-  int text_height = 10;
-  int row_height = 20;  // of the legend
-
-  cv::Size textSize(const std::string& s) const {
-    int baseline = 0;
-    return cv::getTextSize(s, cv::FONT_HERSHEY_SIMPLEX, font, text, &baseline);
+// The points with finite coordinates (a diverged estimate leaves the picture).
+std::vector<PlotPoint> finitePoints(const std::vector<Eigen::Vector3d>& points) {
+  std::vector<PlotPoint> finite;
+  for (const Eigen::Vector3d& p : points) {
+    if (p.allFinite()) finite.push_back(plotPoint(p));
   }
-  void put(const std::string& s, int x, int y) {
-    cv::putText(image, s, {x, y + text_height / 2}, cv::FONT_HERSHEY_SIMPLEX, font,
-                cv::Scalar(0, 0, 0), text, cv::LINE_AA);
-  }
-
-  cv::Point at(const Eigen::Vector3d& p) const { return at(p.x(), p.y()); }
-  cv::Point at(double x, double y) const { return subPixel(frame.column(x), frame.row(y)); }
-  int length(double metres) const {
-    return static_cast<int>(
-        std::lround(std::max(0.0, onCanvas(metres * frame.pixels_per_metre)) * kSubPixel));
-  }
-};
-
-void fillRect(cv::Mat& image, double c0, double r0, double c1, double r1, const Rgb& color) {
-  c0 = onCanvas(c0), r0 = onCanvas(r0), c1 = onCanvas(c1), r1 = onCanvas(r1);
-  const int x0 = static_cast<int>(std::lround(std::min(c0, c1)));
-  const int y0 = static_cast<int>(std::lround(std::min(r0, r1)));
-  const int x1 = std::max(x0 + 1, static_cast<int>(std::lround(std::max(c0, c1))));
-  const int y1 = std::max(y0 + 1, static_cast<int>(std::lround(std::max(r0, r1))));
-  const cv::Rect rect = cv::Rect(x0, y0, x1 - x0, y1 - y0) & cv::Rect(0, 0, image.cols, image.rows);
-  if (rect.area() > 0) image(rect).setTo(bgr(color));
+  return finite;
 }
 
-void drawColumns(Canvas& canvas, const MapProjection& map, Cell which, const Rgb& color) {
-  for (const auto& [column, cell] : map.columns) {
-    if (cell != which) continue;
-    const double x = column.first * map.voxel_size;
-    const double y = column.second * map.voxel_size;
-    fillRect(canvas.image, canvas.frame.column(x), canvas.frame.row(y),
-             canvas.frame.column(x + map.voxel_size), canvas.frame.row(y + map.voxel_size), color);
-  }
-}
-
-void drawDisc(cv::Mat& image, cv::Point centre, int radius, const Rgb& fill, int edge) {
-  cv::circle(image, centre, radius * static_cast<int>(kSubPixel), bgr(fill), cv::FILLED,
-             cv::LINE_AA, kShift);
-  cv::circle(image, centre, radius * static_cast<int>(kSubPixel), cv::Scalar(0, 0, 0), edge,
-             cv::LINE_AA, kShift);
-}
-
-void drawPolygon(cv::Mat& image, cv::Point centre, int radius, const std::vector<cv::Point2d>& unit,
-                 const Rgb& fill) {
-  std::vector<cv::Point> points;
-  for (const cv::Point2d& u : unit) {
-    points.emplace_back(centre.x + static_cast<int>(std::lround(u.x * radius * kSubPixel)),
-                        centre.y + static_cast<int>(std::lround(u.y * radius * kSubPixel)));
-  }
-  cv::fillConvexPoly(image, points, bgr(fill), cv::LINE_AA, kShift);
-  cv::polylines(image, points, true, cv::Scalar(0, 0, 0), 1, cv::LINE_AA, kShift);
-}
-
-const std::vector<cv::Point2d> kDiamond = {{0, -1.3}, {1.1, 0}, {0, 1.3}, {-1.1, 0}};
-const std::vector<cv::Point2d> kTriangle = {{0, -1}, {0.95, 0.8}, {-0.95, 0.8}};
-
-void drawCross(cv::Mat& image, cv::Point centre, int radius, const Rgb& color, int thickness) {
-  const int r = radius * static_cast<int>(kSubPixel);
-  cv::line(image, centre + cv::Point(-r, -r), centre + cv::Point(r, r), bgr(color), thickness,
-           cv::LINE_AA, kShift);
-  cv::line(image, centre + cv::Point(-r, r), centre + cv::Point(r, -r), bgr(color), thickness,
-           cv::LINE_AA, kShift);
-}
-
-// Where the vehicle was last: a ring in the path's colour.
-void drawEnd(Canvas& canvas, cv::Point centre) {
-  const int radius = canvas.marker * static_cast<int>(kSubPixel) * 2 / 3;
-  cv::circle(canvas.image, centre, radius, bgr(colors::kUnknown), cv::FILLED, cv::LINE_AA, kShift);
-  cv::circle(canvas.image, centre, radius, bgr(colors::kPath), std::max(2, canvas.line - 1),
-             cv::LINE_AA, kShift);
-}
-
-enum class Swatch {
-  kArea,
-  kCylinder,
-  kBounds,
-  kPath,
-  kEnd,
-  kStart,
-  kGoal,
-  kExplorerGoal,
-  kCollision
-};
-
-struct LegendItem {
-  Swatch swatch;
-  std::string label;
-  Rgb fill{};  // of a kArea swatch
-};
-
-void drawSwatch(Canvas& canvas, Swatch swatch, cv::Point centre, int half) {
-  cv::Mat& image = canvas.image;
-  const int s = static_cast<int>(kSubPixel);
-  const cv::Point corner(half * s, half * s);
-  switch (swatch) {
-    case Swatch::kArea:
-      break;  // filled by the caller, who knows the colour
-    case Swatch::kCylinder:
-      cv::circle(image, centre, half * s, bgr(colors::kObstacle), cv::FILLED, cv::LINE_AA, kShift);
-      cv::circle(image, centre, half * s, bgr(colors::kObstacleEdge), 2, cv::LINE_AA, kShift);
-      break;
-    case Swatch::kBounds:
-      cv::rectangle(image, centre - corner, centre + corner, bgr(colors::kBounds), 2, cv::LINE_8,
-                    kShift);
-      break;
-    case Swatch::kPath:
-      cv::line(image, centre - cv::Point(half * s * 3 / 2, 0),
-               centre + cv::Point(half * s * 3 / 2, 0), bgr(colors::kPath), canvas.line,
-               cv::LINE_AA, kShift);
-      break;
-    case Swatch::kEnd:
-      drawEnd(canvas, centre);
-      break;
-    case Swatch::kStart:
-      drawDisc(image, centre, canvas.marker, colors::kStart, 1);
-      break;
-    case Swatch::kGoal:
-      drawPolygon(image, centre, canvas.marker, kDiamond, colors::kGoal);
-      break;
-    case Swatch::kExplorerGoal:
-      drawPolygon(image, centre, canvas.marker, kTriangle, colors::kExplorerGoal);
-      break;
-    case Swatch::kCollision:
-      drawCross(image, centre, canvas.marker, colors::kCollision, canvas.line);
-      break;
-  }
-}
-
-// 1, 2 or 5 times a power of ten, at most `limit`.
-double niceLength(double limit) {
-  const double power = std::pow(10.0, std::floor(std::log10(limit)));
-  for (const double m : {5.0, 2.0, 1.0}) {
-    if (m * power <= limit) return m * power;
-  }
-  return power;
-}
-
-// The legend strip from row `top` down: the title (shortened from the front of the file name to
-// fit) and the scale bar, then the items on a grid.
-void drawLegend(Canvas& canvas, const std::vector<LegendItem>& legend, const std::string& name,
-                const std::string& subtitle, int top, int per_row, int margin) {
-  cv::Mat& image = canvas.image;
-  const int size = image.cols;
-  cv::line(image, {0, top}, {size - 1, top}, cv::Scalar(160, 160, 160), 1);
-  const int y = top + canvas.row_height / 2 + margin / 2;
-
-  const double plot_width = size - 2.0 * margin;
-  const double bar_metres = niceLength(0.2 * plot_width / canvas.frame.pixels_per_metre);
-  const int bar_pixels = static_cast<int>(std::lround(bar_metres * canvas.frame.pixels_per_metre));
-  char bar_label[32];
-  std::snprintf(bar_label, sizeof(bar_label), "%g m", bar_metres);
-  const int bar_right = size - margin - canvas.textSize(bar_label).width - margin / 2;
-  const int bar_left = bar_right - bar_pixels;
-  const cv::Scalar black(0, 0, 0);
-  const int tick = canvas.marker / 2;
-  cv::line(image, {bar_left, y}, {bar_right, y}, black, canvas.text + 1);
-  cv::line(image, {bar_left, y - tick}, {bar_left, y + tick}, black, canvas.text + 1);
-  cv::line(image, {bar_right, y - tick}, {bar_right, y + tick}, black, canvas.text + 1);
-  canvas.put(bar_label, bar_right + margin / 2, y);
-
-  std::string title = name + subtitle;
-  for (size_t cut = 1; cut <= name.size() && canvas.textSize(title).width > bar_left - 2 * margin;
-       ++cut) {
-    title = "..." + name.substr(cut) + subtitle;
-  }
-  canvas.put(title, margin, y);
-
-  const int column_width = (size - 2 * margin) / per_row;
-  const int half = std::max(4, canvas.row_height / 3);
-  for (size_t i = 0; i < legend.size(); ++i) {
-    const int x = margin + static_cast<int>(i % per_row) * column_width;
-    const int row_y = y + canvas.row_height * (1 + static_cast<int>(i / per_row));
-    if (legend[i].swatch == Swatch::kArea) {
-      const cv::Rect box(x + half, row_y - half, 2 * half, 2 * half);
-      image(box).setTo(bgr(legend[i].fill));
-      cv::rectangle(image, box, cv::Scalar(120, 120, 120), 1);
-    } else {
-      drawSwatch(canvas, legend[i].swatch, subPixel(x + 2 * half + 0.5, row_y + 0.5), half);
-    }
-    canvas.put(legend[i].label, x + 4 * half, row_y);
-  }
-}
-
-// Everything the picture shows.
-struct Scene {
-  std::optional<sim_world_t> world;
-  std::vector<Eigen::Vector3d> path;
-  bool path_is_estimate = false;
-  std::optional<Eigen::Vector3d> start;
-  std::optional<Eigen::Vector3d> goal;
-  std::vector<Eigen::Vector3d> explorer_goals;
-  std::vector<Eigen::Vector3d> collisions;
-  std::optional<MapProjection> map;
-  std::string map_name;  // "ESDF" or "TSDF"
-};
-
-// The scene of a log; fills result's band, map description and notes.
-Expected<Scene> readScene(const std::string& log_path, const PlotOptions& options,
-                          PlotResult& result) {
+// The scene of a log, with the band, the map description and the notes.
+Expected<PlotScene> readScene(const std::string& log_path, const PlotOptions& options) {
+  PlotScene scene;
+  scene.title = std::filesystem::path(log_path).filename().string();
   MissionLog log;
   log.layer = options.layer;
   try {
     const LogReadResult read = readLog(log_path, [&](const LogEvent& e) { collect(e, log); });
     if (!read.error.empty()) {
-      result.notes.push_back("read " + std::to_string(read.events) +
-                             " events, then stopped: " + read.error);
+      scene.notes.push_back("read " + std::to_string(read.events) +
+                            " events, then stopped: " + read.error);
     }
   } catch (const std::exception& e) {
     return unexpected(e.what());
   }
   for (const auto& [channel, count] : log.undecodable) {
-    result.notes.push_back(channel + ": " + std::to_string(count) + " messages do not decode (" +
-                           log.first_error[channel] + ")");
+    scene.notes.push_back(channel + ": " + std::to_string(count) + " messages do not decode (" +
+                          log.first_error[channel] + ")");
   }
 
-  Scene scene;
   scene.world = std::move(log.world);
-  scene.explorer_goals = std::move(log.explorer_goals);
-  scene.collisions = std::move(log.collisions);
+  scene.explorer_goals = finitePoints(log.explorer_goals);
+  scene.collisions = finitePoints(log.collisions);
   // The path: ground truth, else the state estimate (a real vehicle's log).
   if (log.truth.empty()) {
-    result.notes.push_back(log.estimate.empty() ? "no SIM_TRUTH or STATE_ESTIMATE: no path drawn"
-                                                : "no SIM_TRUTH: the path is the STATE_ESTIMATE");
+    scene.notes.push_back(log.estimate.empty() ? "no SIM_TRUTH or STATE_ESTIMATE: no path drawn"
+                                               : "no SIM_TRUTH: the path is the STATE_ESTIMATE");
   }
   scene.path_is_estimate = log.truth.empty() && !log.estimate.empty();
-  scene.path = std::move(scene.path_is_estimate ? log.estimate : log.truth);
+  scene.path = finitePoints(scene.path_is_estimate ? log.estimate : log.truth);
   if (!scene.world) {
-    result.notes.push_back("no SIM_WORLD: no ground-truth obstacles or bounds drawn");
+    scene.notes.push_back("no SIM_WORLD: no ground-truth obstacles or bounds drawn");
   }
   if (!log.messages.count("SIM_EVENT")) {
-    result.notes.push_back("no SIM_EVENT: collisions unknown, none drawn");
+    scene.notes.push_back("no SIM_EVENT: collisions unknown, none drawn");
   }
   if (!log.messages.count("EXPLORER_GOAL")) {
-    result.notes.push_back("no EXPLORER_GOAL: no intermediate goals drawn");
+    scene.notes.push_back("no EXPLORER_GOAL: no intermediate goals drawn");
   }
   if (!scene.path.empty()) {
     scene.start = scene.path.front();
   } else if (scene.world) {
-    scene.start = vector3(scene.world->start);
+    scene.start = plotPoint(vector3(scene.world->start));
   }
-  scene.goal = log.mission_goal;
-  if (!scene.goal && scene.world) scene.goal = vector3(scene.world->goal);
+  if (log.mission_goal) {
+    scene.goal = plotPoint(*log.mission_goal);
+  } else if (scene.world) {
+    scene.goal = plotPoint(vector3(scene.world->goal));
+  }
   if (!log.mission_goal) {
-    result.notes.push_back(scene.world ? "no MISSION_GOAL: the goal is SIM_WORLD's"
-                                       : "no MISSION_GOAL or SIM_WORLD: no goal drawn");
+    scene.notes.push_back(scene.world ? "no MISSION_GOAL: the goal is SIM_WORLD's"
+                                      : "no MISSION_GOAL or SIM_WORLD: no goal drawn");
   }
 
   // The map band: around the median flown height, else the start's height.
   if (options.z_min) {
-    result.z_min = *options.z_min;
-    result.z_max = *options.z_max;
+    scene.z_min = *options.z_min;
+    scene.z_max = *options.z_max;
   } else {
     double height = 1.5;
     if (!scene.path.empty()) {
       std::vector<double> heights;
-      for (const Eigen::Vector3d& p : scene.path) heights.push_back(p.z());
+      for (const PlotPoint& p : scene.path) heights.push_back(p.z);
       std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
       height = heights[heights.size() / 2];
     } else if (scene.start) {
-      height = scene.start->z();
+      height = scene.start->z;
     }
-    result.z_min = height - 0.5;
-    result.z_max = height + 0.5;
+    scene.z_min = height - 0.5;
+    scene.z_max = height + 0.5;
   }
   const bool esdf = options.layer == "esdf" || (options.layer == "auto" && !log.esdf.empty());
-  scene.map_name = esdf ? "ESDF" : "TSDF";
-  const std::string channel = "MAP_" + scene.map_name;
-  scene.map = esdf ? projectMap<EsdfVoxel>(std::move(log.esdf), channel, result.z_min, result.z_max,
-                                           result.notes)
-                   : projectMap<TsdfVoxel>(std::move(log.tsdf), channel, result.z_min, result.z_max,
-                                           result.notes);
+  const std::string channel = esdf ? "MAP_ESDF" : "MAP_TSDF";
+  scene.map = esdf ? projectMap<EsdfVoxel>(std::move(log.esdf), channel, scene.z_min, scene.z_max,
+                                           scene.notes)
+                   : projectMap<TsdfVoxel>(std::move(log.tsdf), channel, scene.z_min, scene.z_max,
+                                           scene.notes);
   if (scene.map) {
-    result.map_layer = channel;
-    result.map_revision = scene.map->revision;
+    scene.map_layer = channel;
+    char band[96];
+    std::snprintf(band, sizeof(band), "%s rev %lld, max over z %.1f..%.1f m", channel.c_str(),
+                  static_cast<long long>(scene.map->revision), scene.z_min, scene.z_max);
+    scene.subtitle = band;
   } else {
-    result.notes.push_back(options.layer == "auto" ? "no MAP_ESDF or MAP_TSDF: no map drawn"
-                                                   : "no " + channel + ": no map drawn");
+    scene.notes.push_back(options.layer == "auto" ? "no MAP_ESDF or MAP_TSDF: no map drawn"
+                                                  : "no " + channel + ": no map drawn");
   }
 
   if (!scene.world && scene.path.empty() && (!scene.map || scene.map->columns.empty())) {
@@ -542,106 +317,6 @@ Expected<Scene> readScene(const std::string& log_path, const PlotOptions& option
         log_path);
   }
   return scene;
-}
-
-// The world area to show [m]: the world's bounds (the map's extent without them) and every
-// point flown or proposed, with a margin.
-std::pair<Eigen::Vector2d, Eigen::Vector2d> sceneExtent(const Scene& scene) {
-  Eigen::Vector2d low = Eigen::Vector2d::Constant(INFINITY);
-  Eigen::Vector2d high = Eigen::Vector2d::Constant(-INFINITY);
-  const auto extend = [&](double x, double y) {
-    if (!std::isfinite(x) || !std::isfinite(y)) return;
-    low = low.cwiseMin(Eigen::Vector2d(x, y));
-    high = high.cwiseMax(Eigen::Vector2d(x, y));
-  };
-  if (scene.world) {
-    extend(scene.world->bounds_min[0], scene.world->bounds_min[1]);
-    extend(scene.world->bounds_max[0], scene.world->bounds_max[1]);
-  } else if (scene.map) {
-    const double voxel = scene.map->voxel_size;
-    for (const auto& [column, cell] : scene.map->columns) {
-      extend(column.first * voxel, column.second * voxel);
-      extend((column.first + 1) * voxel, (column.second + 1) * voxel);
-    }
-  }
-  for (const auto* points : {&scene.path, &scene.explorer_goals, &scene.collisions}) {
-    for (const Eigen::Vector3d& p : *points) extend(p.x(), p.y());
-  }
-  for (const auto& p : {scene.start, scene.goal}) {
-    if (p) extend(p->x(), p->y());
-  }
-  if (!(low.array() <= high.array()).all()) {  // nothing finite to show
-    low.setConstant(-1);
-    high.setConstant(1);
-  }
-  const Eigen::Vector2d pad = ((high - low) * 0.03).cwiseMax(0.5);
-  return {low - pad, high + pad};
-}
-
-// Back to front: the map's free space, the ground truth, the map's obstacles over it, bounds,
-// path, markers.
-void drawScene(Canvas& canvas, const Scene& scene) {
-  cv::Mat& image = canvas.image;
-  if (scene.map) drawColumns(canvas, *scene.map, Cell::kFree, colors::kFree);
-  if (scene.world) {
-    const sim_world_t& w = *scene.world;
-    for (size_t i = 0; i < w.cylinder_x.size(); ++i) {
-      cv::circle(image, canvas.at(w.cylinder_x[i], w.cylinder_y[i]),
-                 canvas.length(w.cylinder_radius[i]), bgr(colors::kObstacle), cv::FILLED,
-                 cv::LINE_AA, kShift);
-    }
-  }
-  if (scene.map) drawColumns(canvas, *scene.map, Cell::kOccupied, colors::kOccupied);
-  if (scene.world) {
-    const sim_world_t& w = *scene.world;
-    const int edge = std::max(1, canvas.line / 2);
-    for (size_t i = 0; i < w.cylinder_x.size(); ++i) {
-      cv::circle(image, canvas.at(w.cylinder_x[i], w.cylinder_y[i]),
-                 canvas.length(w.cylinder_radius[i]), bgr(colors::kObstacleEdge), edge, cv::LINE_AA,
-                 kShift);
-    }
-    cv::rectangle(image, canvas.at(w.bounds_min[0], w.bounds_max[1]),
-                  canvas.at(w.bounds_max[0], w.bounds_min[1]), bgr(colors::kBounds), edge,
-                  cv::LINE_8, kShift);
-  }
-  if (scene.path.size() >= 2) {
-    std::vector<cv::Point> points;
-    for (const Eigen::Vector3d& p : scene.path) points.push_back(canvas.at(p));
-    cv::polylines(image, points, false, bgr(colors::kPath), canvas.line, cv::LINE_AA, kShift);
-  }
-  if (scene.path.size() >= 2) drawEnd(canvas, canvas.at(scene.path.back()));
-  for (const Eigen::Vector3d& p : scene.explorer_goals) {
-    drawPolygon(image, canvas.at(p), canvas.marker, kTriangle, colors::kExplorerGoal);
-  }
-  if (scene.start) drawDisc(image, canvas.at(*scene.start), canvas.marker, colors::kStart, 1);
-  if (scene.goal)
-    drawPolygon(image, canvas.at(*scene.goal), canvas.marker, kDiamond, colors::kGoal);
-  for (const Eigen::Vector3d& p : scene.collisions) {
-    drawCross(image, canvas.at(p), canvas.marker, colors::kCollision, canvas.line);
-  }
-}
-
-// What the scene shows, for the legend.
-std::vector<LegendItem> legendOf(const Scene& scene) {
-  std::vector<LegendItem> legend;
-  if (scene.world) {
-    legend.push_back({Swatch::kCylinder, "obstacle (SIM_WORLD)"});
-    legend.push_back({Swatch::kBounds, "flight volume"});
-  }
-  if (scene.map) {
-    legend.push_back({Swatch::kArea, "free (" + scene.map_name + ")", colors::kFree});
-    legend.push_back({Swatch::kArea, "occupied (" + scene.map_name + ")", colors::kOccupied});
-    legend.push_back({Swatch::kArea, "unknown", colors::kUnknown});
-  }
-  if (!scene.path.empty()) {
-    legend.push_back({Swatch::kPath, scene.path_is_estimate ? "path (estimate)" : "path"});
-    legend.push_back({Swatch::kEnd, "end of path"});
-  }
-  if (scene.start) legend.push_back({Swatch::kStart, "start"});
-  if (scene.goal) legend.push_back({Swatch::kGoal, "goal"});
-  if (!scene.explorer_goals.empty()) legend.push_back({Swatch::kExplorerGoal, "explorer goal"});
-  if (!scene.collisions.empty()) legend.push_back({Swatch::kCollision, "collision"});
-  return legend;
 }
 
 }  // namespace
@@ -661,65 +336,91 @@ std::string validatePlotOptions(const PlotOptions& options) {
   return {};
 }
 
-Expected<PlotResult> plotLog(const std::string& log_path, const PlotOptions& options) {
+Cell MapProjection::at(double x, double y) const {
+  const auto column = columns.find(
+      {static_cast<int>(std::floor(x / voxel_size)), static_cast<int>(std::floor(y / voxel_size))});
+  return column == columns.end() ? Cell::kUnknown : column->second;
+}
+
+Expected<PlotScene> readPlotScene(const std::string& log_path, const PlotOptions& options) {
   if (const std::string error = validatePlotOptions(options); !error.empty()) {
     return unexpected(error);
   }
-  PlotResult result;
-  const Expected<Scene> scene = readScene(log_path, options, result);
-  if (!scene) return unexpected(scene.error());
+  return readScene(log_path, options);
+}
 
-  // Sizes scale with the image.
-  Canvas canvas;
-  const int size = options.size;
-  canvas.line = std::max(3, size / 300);
-  canvas.marker = std::max(5, size / 110);
-  canvas.font = std::clamp(size / 1800.0, 0.35, 2.0);
-  canvas.text = std::max(1, size / 1200);
-  canvas.text_height = canvas.textSize("Ag").height;
-  canvas.row_height = std::max(canvas.text_height * 2, 2 * canvas.marker + 6);
-
-  // Layout: the plot above, the legend (a title row, then the items) below.
-  const std::vector<LegendItem> legend = legendOf(*scene);
-  const int per_row = size >= 600 ? 4 : 2;
-  const int legend_rows = 1 + static_cast<int>((legend.size() + per_row - 1) / per_row);
-  const int margin = std::max(8, size / 50);
-  const int legend_top = size - legend_rows * canvas.row_height - margin;
-  const double plot_width = size - 2.0 * margin;
-  const double plot_height = legend_top - 2.0 * margin;
-
-  const auto [low, high] = sceneExtent(*scene);
-  const Eigen::Vector2d extent = high - low;
-  PlotFrame& frame = canvas.frame;
-  frame.pixels_per_metre = std::min(plot_width / extent.x(), plot_height / extent.y());
-  frame.origin_column = margin + (plot_width - extent.x() * frame.pixels_per_metre) / 2 -
-                        low.x() * frame.pixels_per_metre;
-  frame.origin_row = margin + plot_height -
-                     (plot_height - extent.y() * frame.pixels_per_metre) / 2 +
-                     low.y() * frame.pixels_per_metre;
-  canvas.image = cv::Mat(size, size, CV_8UC3, bgr(colors::kUnknown));
-
-  drawScene(canvas, *scene);
-  std::string subtitle;
-  if (scene->map) {
-    char band[96];
-    std::snprintf(band, sizeof(band), "  %s rev %lld, max over z %.1f..%.1f m",
-                  result.map_layer.c_str(), static_cast<long long>(result.map_revision),
-                  result.z_min, result.z_max);
-    subtitle = band;
-  }
-  drawLegend(canvas, legend, std::filesystem::path(log_path).filename().string(), subtitle,
-             legend_top, per_row, margin);
-
-  try {
-    if (!cv::imwrite(options.out, canvas.image)) {
-      return unexpected("cannot write '" + options.out + "'");
+std::string sceneJson(const PlotScene& scene, int size) {
+  using Json = nlohmann::json;
+  const auto point = [](const PlotPoint& p) { return Json::array({p.x, p.y}); };
+  const auto points = [&](const std::vector<PlotPoint>& list) {
+    Json array = Json::array();
+    for (const PlotPoint& p : list) array.push_back(point(p));
+    return array;
+  };
+  const auto optional = [&](const std::optional<PlotPoint>& p) {
+    return p ? point(*p) : Json(nullptr);
+  };
+  Json json;
+  json["title"] = scene.title;
+  json["subtitle"] = scene.subtitle;
+  json["size"] = size;
+  json["path"] = points(scene.path);
+  json["path_is_estimate"] = scene.path_is_estimate;
+  json["start"] = optional(scene.start);
+  json["goal"] = optional(scene.goal);
+  json["explorer_goals"] = points(scene.explorer_goals);
+  json["collisions"] = points(scene.collisions);
+  json["world"] = nullptr;
+  if (scene.world) {
+    const sim_world_t& w = *scene.world;
+    Json cylinders = Json::array();
+    for (size_t i = 0; i < w.cylinder_x.size(); ++i) {
+      cylinders.push_back({w.cylinder_x[i], w.cylinder_y[i], w.cylinder_radius[i]});
     }
-  } catch (const cv::Exception& e) {
-    return unexpected("cannot write '" + options.out + "': " + e.what());
+    json["world"] = {{"bounds_min", {w.bounds_min[0], w.bounds_min[1]}},
+                     {"bounds_max", {w.bounds_max[0], w.bounds_max[1]}},
+                     {"cylinders", cylinders}};
   }
-  result.frame = frame;
-  return result;
+  json["map"] = nullptr;
+  if (scene.map) {
+    Json free = Json::array(), occupied = Json::array();
+    for (const auto& [column, cell] : scene.map->columns) {
+      (cell == Cell::kOccupied ? occupied : free).push_back({column.first, column.second});
+    }
+    json["map"] = {{"name", scene.map_layer.substr(4)},
+                   {"voxel_size", scene.map->voxel_size},
+                   {"free", free},
+                   {"occupied", occupied}};
+  }
+  return json.dump();
+}
+
+Expected<PlotScene> plotLog(const std::string& log_path, const PlotOptions& options) {
+  Expected<PlotScene> scene = readPlotScene(log_path, options);
+  if (!scene) return scene;
+  // The PNG's folder must take it; the scene and the script's output wait in the temp folder.
+  const std::filesystem::path out(options.out);
+  const std::string folder = out.has_parent_path() ? out.parent_path().string() : ".";
+  if (::access(folder.c_str(), W_OK) != 0) {
+    return unexpected("cannot write '" + options.out + "': " + std::strerror(errno));
+  }
+  const std::string stem =
+      (std::filesystem::temp_directory_path() / ("thicket-plot-" + std::to_string(::getpid())))
+          .string();
+  {
+    std::ofstream json(stem + ".json", std::ios::binary);
+    json << sceneJson(*scene, options.size);
+    json.close();
+    if (!json) return unexpected("cannot write '" + stem + ".json'");
+  }
+  const std::string error = runProgram(
+      {"/usr/bin/python3", std::string(THICKET_SOURCE_DIR) + "/tools/log/plot_mission.py",
+       stem + ".json", options.out},
+      stem + ".log");
+  std::error_code ignored;
+  std::filesystem::remove(stem + ".json", ignored);
+  if (!error.empty()) return unexpected("cannot draw '" + options.out + "': " + error);
+  return scene;
 }
 
 }  // namespace thicket::log

@@ -7,13 +7,17 @@
 // order, a full snapshot replacing what came before. It is drawn as a max-projection of a
 // horizontal band around the flight height: a column is occupied when any observed voxel in the
 // band is within one voxel of a surface (or behind one), else free when any is observed, else
-// unknown (left blank).
+// unknown (left blank). This side only extracts; tools/log/plot_mission.py draws with matplotlib,
+// as the benchmark's figures are drawn.
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <thicket/sim_world_t.hpp>
 
 #include "thicket/common/expected.h"
 
@@ -29,41 +33,35 @@ struct PlotOptions {
   std::optional<double> z_max;
 };
 
-/// An 8-bit RGB colour.
-struct Rgb {
-  uint8_t r = 0, g = 0, b = 0;
-  bool operator==(const Rgb&) const = default;
+/// What a map column shows: the "highest" class of the observed voxels in the band.
+enum class Cell : int8_t { kUnknown = 0, kFree = 1, kOccupied = 2 };
+
+/// The top-down projection of a map layer's z band, per voxel column (x, y).
+struct MapProjection {
+  double voxel_size = 0;
+  int64_t revision = -1;
+  std::map<std::pair<int, int>, Cell> columns;  ///< unknown columns are absent
+
+  /// The class of the column holding world point (x, y).
+  Cell at(double x, double y) const;
 };
 
-/// The colours of the picture: what the legend shows and what tests look for.
-namespace colors {
-constexpr Rgb kUnknown{255, 255, 255};
-constexpr Rgb kFree{200, 228, 250};
-constexpr Rgb kOccupied{70, 70, 80};
-constexpr Rgb kObstacle{222, 184, 135};
-constexpr Rgb kObstacleEdge{139, 90, 43};
-constexpr Rgb kBounds{40, 40, 40};
-constexpr Rgb kPath{20, 80, 230};
-constexpr Rgb kStart{0, 170, 60};
-constexpr Rgb kGoal{150, 20, 190};
-constexpr Rgb kExplorerGoal{255, 140, 0};
-constexpr Rgb kCollision{230, 0, 0};
-}  // namespace colors
-
-/// Where world points land in the image (y up in the world is up in the picture).
-struct PlotFrame {
-  double pixels_per_metre = 0;
-  double origin_column = 0;  ///< image column of world x = 0
-  double origin_row = 0;     ///< image row of world y = 0
-
-  double column(double x) const { return origin_column + x * pixels_per_metre; }
-  double row(double y) const { return origin_row - y * pixels_per_metre; }
+/// A point of the picture [m]; z is kept for the map band.
+struct PlotPoint {
+  double x = 0, y = 0, z = 0;
 };
 
-struct PlotResult {
-  PlotFrame frame;
-  std::string map_layer;  ///< "MAP_ESDF", "MAP_TSDF" or empty when no map was drawn
-  int64_t map_revision = -1;
+/// Everything the picture shows, read from the log.
+struct PlotScene {
+  std::string title;     ///< the log's file name
+  std::string subtitle;  ///< the map layer, its revision and the band
+  std::optional<sim_world_t> world;
+  std::vector<PlotPoint> path;  ///< non-finite positions (a diverged estimate) left out
+  bool path_is_estimate = false;
+  std::optional<PlotPoint> start, goal;
+  std::vector<PlotPoint> explorer_goals, collisions;
+  std::optional<MapProjection> map;
+  std::string map_layer;        ///< "MAP_ESDF", "MAP_TSDF" or empty when no map is drawn
   double z_min = 0, z_max = 0;  ///< the projected band [m]
   /// What is missing or could not be used ("no SIM_EVENT: no collisions drawn"), for stderr.
   std::vector<std::string> notes;
@@ -72,9 +70,16 @@ struct PlotResult {
 /// Why the options are invalid, or empty.
 std::string validatePlotOptions(const PlotOptions& options);
 
-/// Reads the log and writes the picture. Errors: invalid options, the log cannot be opened, it
-/// holds nothing to draw (no SIM_WORLD, no map, no path on SIM_TRUTH or STATE_ESTIMATE), or the
-/// PNG cannot be written.
-Expected<PlotResult> plotLog(const std::string& log_path, const PlotOptions& options);
+/// Reads what the picture shows from the log. Errors: invalid options, the log cannot be opened,
+/// or it holds nothing to draw (no SIM_WORLD, no map, no path on SIM_TRUTH or STATE_ESTIMATE).
+Expected<PlotScene> readPlotScene(const std::string& log_path, const PlotOptions& options);
+
+/// The scene as the JSON object plot_mission.py draws (coordinates in metres, map columns as
+/// voxel indices).
+std::string sceneJson(const PlotScene& scene, int size);
+
+/// Reads the scene and has tools/log/plot_mission.py (matplotlib) draw it into options.out.
+/// Errors: those of readPlotScene, or the picture could not be drawn or written.
+Expected<PlotScene> plotLog(const std::string& log_path, const PlotOptions& options);
 
 }  // namespace thicket::log

@@ -1,12 +1,15 @@
 // thicket-log plot: a hand-made mission log (two cylinders, a path, goals, a collision and an ESDF
-// built from a snapshot and deltas logged out of revision order) drawn to a PNG whose pixels are
-// checked by colour class; missing channels, nothing to draw, bad arguments.
+// built from a snapshot and deltas logged out of revision order): the scene read from it checked
+// exactly (map columns by class, points, notes), the JSON plot_mission.py draws, and the PNG it
+// writes; missing channels, nothing to draw, bad arguments.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <procman_lcm/deputy_info_t.hpp>
@@ -164,66 +167,43 @@ void writeMission(const std::string& path, const Channels& channels = {}) {
   }
 }
 
-// The palette colour nearest to a pixel.
-std::string colourClass(const cv::Mat& image, const PlotFrame& frame, double x, double y) {
-  const int column = static_cast<int>(std::floor(frame.column(x)));
-  const int row = static_cast<int>(std::floor(frame.row(y)));
-  if (column < 0 || row < 0 || column >= image.cols || row >= image.rows) return "outside";
-  const cv::Vec3b bgr = image.at<cv::Vec3b>(row, column);
-  const std::vector<std::pair<std::string, Rgb>> palette = {
-      {"unknown", colors::kUnknown},    {"free", colors::kFree},
-      {"occupied", colors::kOccupied},  {"obstacle", colors::kObstacle},
-      {"path", colors::kPath},          {"start", colors::kStart},
-      {"goal", colors::kGoal},          {"explorer goal", colors::kExplorerGoal},
-      {"collision", colors::kCollision}};
-  std::string best;
-  double best_distance = std::numeric_limits<double>::infinity();
-  for (const auto& [name, c] : palette) {
-    const double distance = std::hypot(bgr[2] - c.r, bgr[1] - c.g, bgr[0] - c.b);
-    if (distance < best_distance) best = name, best_distance = distance;
-  }
-  return best;
+std::string cellName(Cell cell) {
+  return cell == Cell::kOccupied ? "occupied" : cell == Cell::kFree ? "free" : "unknown";
+}
+
+bool near(const std::optional<PlotPoint>& p, double x, double y) {
+  return p && std::hypot(p->x - x, p->y - y) < 1e-9;
 }
 
 // Each test writes into a fresh directory of its own, removed when it ends.
 class LogPlot : public thicket::testing::TempDirTest {};
 
-TEST_F(LogPlot, DrawsWorldMapPathGoalsAndCollisions) {
+TEST_F(LogPlot, ReadsWorldMapPathGoalsAndCollisions) {
   const std::string log_path = tempPath("mission.lcm");
-  const std::string png = tempPath("top.png");
   writeMission(log_path);
   PlotOptions options;
-  options.out = png;
-  options.size = 640;
-  const auto result = plotLog(log_path, options);
-  ASSERT_TRUE(result) << result.error();
-  EXPECT_EQ(result->map_layer, "MAP_ESDF");
-  EXPECT_EQ(result->map_revision, 2);
-  EXPECT_DOUBLE_EQ(result->z_min, kHeight - 0.5);
-  EXPECT_DOUBLE_EQ(result->z_max, kHeight + 0.5);
-  EXPECT_TRUE(result->notes.empty()) << result->notes.front();
+  options.out = tempPath("top.png");
+  const auto scene = readPlotScene(log_path, options);
+  ASSERT_TRUE(scene) << scene.error();
+  EXPECT_EQ(scene->map_layer, "MAP_ESDF");
+  ASSERT_TRUE(scene->map);
+  EXPECT_EQ(scene->map->revision, 2);
+  EXPECT_DOUBLE_EQ(scene->z_min, kHeight - 0.5);
+  EXPECT_DOUBLE_EQ(scene->z_max, kHeight + 0.5);
+  EXPECT_EQ(scene->subtitle, "MAP_ESDF rev 2, max over z 1.0..2.0 m");
+  EXPECT_TRUE(scene->notes.empty()) << scene->notes.front();
 
-  const cv::Mat image = cv::imread(png, cv::IMREAD_COLOR);
-  ASSERT_FALSE(image.empty());
-  EXPECT_EQ(image.cols, 640);
-  EXPECT_EQ(image.rows, 640);
-  const PlotFrame& frame = result->frame;
-  // The world's 10 m fit the width less the margins.
-  EXPECT_GT(frame.pixels_per_metre, 50);
-  EXPECT_LT(frame.pixels_per_metre * 10, 640);
+  ASSERT_TRUE(scene->world);
+  EXPECT_EQ(scene->world->cylinder_x, (std::vector<double>{3.0, 7.0}));
+  EXPECT_EQ(scene->path.size(), flownPath().size());
+  EXPECT_TRUE(near(scene->start, 1, 4));
+  EXPECT_TRUE(near(scene->goal, 9, 4));
+  ASSERT_EQ(scene->explorer_goals.size(), 1u);
+  EXPECT_TRUE(near(scene->explorer_goals[0], 5, 6.5));
+  ASSERT_EQ(scene->collisions.size(), 1u);  // the trial end is no collision
+  EXPECT_TRUE(near(scene->collisions[0], 6, 1));
 
-  const auto at = [&](double x, double y) { return colourClass(image, frame, x, y); };
-  EXPECT_EQ(at(3.0, 4.0), "obstacle");  // cylinder centres
-  EXPECT_EQ(at(7.0, 2.0), "obstacle");
-  EXPECT_EQ(at(3.0, 4.45), "obstacle");  // inside the first cylinder's edge
-  EXPECT_EQ(at(3.0, 4.65), "free");      // just outside it
-  EXPECT_EQ(at(4.0, 6.0), "path");       // on the flown path
-  EXPECT_EQ(at(8.5, 5.0), "path");
-  EXPECT_EQ(at(1.0, 4.0), "start");
-  EXPECT_EQ(at(9.0, 4.0), "goal");
-  EXPECT_EQ(at(5.0, 6.5), "explorer goal");
-  EXPECT_EQ(at(6.0, 1.0), "collision");
-  EXPECT_EQ(at(4.0, 1.0), "unknown");   // the trial end is no collision
+  const auto at = [&](double x, double y) { return cellName(scene->map->at(x, y)); };
   EXPECT_EQ(at(1.1, 5.1), "free");      // revision 2 cleared it, though logged first
   EXPECT_EQ(at(2.1, 3.5), "occupied");  // revision 2's obstacle
   EXPECT_EQ(at(2.5, 4.5), "free");      // occupied only below the band
@@ -231,13 +211,39 @@ TEST_F(LogPlot, DrawsWorldMapPathGoalsAndCollisions) {
   EXPECT_EQ(at(8.0, 1.0), "unknown");   // a block removed at revision 2
   EXPECT_EQ(at(5.0, 7.5), "unknown");   // never observed
 
-  // The legend below the plot: something drawn on a white strip.
-  const int legend_top = static_cast<int>(std::ceil(frame.row(-0.5))) + 1;
-  ASSERT_LT(legend_top, image.rows - 20);
-  const cv::Mat legend = image.rowRange(legend_top, image.rows);
-  cv::Mat dark;
-  cv::inRange(legend, cv::Scalar(0, 0, 0), cv::Scalar(100, 100, 100), dark);
-  EXPECT_GT(cv::countNonZero(dark), 500);  // text, scale bar and swatches
+  // What the script is given: the same, in metres and voxel columns.
+  const nlohmann::json json = nlohmann::json::parse(sceneJson(*scene, 640));
+  EXPECT_EQ(json["size"], 640);
+  EXPECT_EQ(json["title"], "mission.lcm");
+  EXPECT_EQ(json["world"]["cylinders"].size(), 2u);
+  EXPECT_EQ(json["world"]["cylinders"][1], nlohmann::json({7.0, 2.0, 0.4}));
+  EXPECT_EQ(json["goal"], nlohmann::json({9.0, 4.0}));
+  EXPECT_EQ(json["collisions"], nlohmann::json({{6.0, 1.0}}));
+  EXPECT_EQ(json["map"]["name"], "ESDF");
+  const nlohmann::json occupied = json["map"]["occupied"];
+  EXPECT_NE(std::find(occupied.begin(), occupied.end(), nlohmann::json({10, 17})), occupied.end())
+      << occupied;  // (2.1, 3.5) at 0.2 m voxels
+  EXPECT_EQ(json["map"]["free"].size() + occupied.size(), scene->map->columns.size());
+}
+
+TEST_F(LogPlot, DrawsAPngOfTheAskedSize) {
+  const std::string log_path = tempPath("mission.lcm");
+  writeMission(log_path);
+  const std::string png = tempPath("top.png");
+  const CliResult result = run("plot '" + log_path + "' --out '" + png + "' --size 640");
+  ASSERT_EQ(result.status, 0) << result.output;
+  EXPECT_NE(result.output.find("wrote " + png + " (640x640 px)"), std::string::npos)
+      << result.output;
+  const cv::Mat image = cv::imread(png, cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  EXPECT_EQ(image.cols, 640);
+  EXPECT_EQ(image.rows, 640);
+  // The path's colour (#1450e6) is drawn somewhere; the scene's JSON is not left behind.
+  cv::Mat path;
+  cv::inRange(image, cv::Scalar(210, 70, 10), cv::Scalar(250, 90, 30), path);
+  EXPECT_GT(cv::countNonZero(path), 100);
+  EXPECT_EQ(std::distance(fs::directory_iterator(tempPath("")), fs::directory_iterator()), 2)
+      << "only the log and the PNG";
 }
 
 // The simulator publishes the world again when a dynamic obstacle appears: the last one is drawn.
@@ -245,18 +251,14 @@ TEST_F(LogPlot, TheLastSimWorldIsDrawn) {
   const std::string log_path = tempPath("mission.lcm");
   PlotOptions options;
   options.out = tempPath("top.png");
-  options.size = 400;
   for (const bool dynamic_obstacle : {false, true}) {
     Channels channels;
     channels.dynamic_obstacle = dynamic_obstacle;
     writeMission(log_path, channels);
-    const auto result = plotLog(log_path, options);
-    ASSERT_TRUE(result) << result.error();
-    const cv::Mat image = cv::imread(options.out, cv::IMREAD_COLOR);
-    ASSERT_FALSE(image.empty());
-    EXPECT_EQ(colourClass(image, result->frame, 5.0, 3.0),
-              dynamic_obstacle ? "obstacle" : "unknown");
-    EXPECT_EQ(colourClass(image, result->frame, 3.0, 4.0), "obstacle");
+    const auto scene = readPlotScene(log_path, options);
+    ASSERT_TRUE(scene) << scene.error();
+    ASSERT_TRUE(scene->world);
+    EXPECT_EQ(scene->world->cylinder_x.size(), dynamic_obstacle ? 3u : 2u);
   }
 }
 
@@ -265,15 +267,13 @@ TEST_F(LogPlot, TheZBandSelectsWhatTheMapShows) {
   writeMission(log_path);
   PlotOptions options;
   options.out = tempPath("low.png");
-  options.size = 400;
   options.z_min = 0.0;
   options.z_max = 0.2;  // only the ground-level voxels
-  const auto result = plotLog(log_path, options);
-  ASSERT_TRUE(result) << result.error();
-  const cv::Mat image = cv::imread(options.out, cv::IMREAD_COLOR);
-  ASSERT_FALSE(image.empty());
-  EXPECT_EQ(colourClass(image, result->frame, 2.5, 4.5), "occupied");
-  EXPECT_EQ(colourClass(image, result->frame, 2.1, 3.5), "free");
+  const auto scene = readPlotScene(log_path, options);
+  ASSERT_TRUE(scene) << scene.error();
+  ASSERT_TRUE(scene->map);
+  EXPECT_EQ(cellName(scene->map->at(2.5, 4.5)), "occupied");
+  EXPECT_EQ(cellName(scene->map->at(2.1, 3.5)), "free");
 }
 
 TEST_F(LogPlot, MissingChannelsAreNamedAndTheRestIsDrawn) {
@@ -298,7 +298,7 @@ TEST_F(LogPlot, MissingChannelsAreNamedAndTheRestIsDrawn) {
   EXPECT_EQ(image.rows, 400);
 }
 
-TEST_F(LogPlot, ATsdfIsDrawnWhenThereIsNoEsdf) {
+TEST_F(LogPlot, ATsdfIsReadWhenThereIsNoEsdf) {
   const std::string log_path = tempPath("tsdf.lcm");
   {
     LogWriter writer(log_path);
@@ -313,30 +313,32 @@ TEST_F(LogPlot, ATsdfIsDrawnWhenThereIsNoEsdf) {
     odometry_t odometry{};
     odometry.position[0] = 0.5, odometry.position[1] = 0.5, odometry.position[2] = kHeight;
     writer.write(2, "STATE_ESTIMATE", odometry);
-    odometry.position[0] = 2.5;
+    odometry.position[0] = std::numeric_limits<double>::quiet_NaN();  // a diverged estimate
     writer.write(3, "STATE_ESTIMATE", odometry);
+    odometry.position[0] = 2.5;
+    writer.write(4, "STATE_ESTIMATE", odometry);
   }
   PlotOptions options;
   options.out = tempPath("tsdf.png");
-  options.size = 400;
-  const auto result = plotLog(log_path, options);
-  ASSERT_TRUE(result) << result.error();
-  EXPECT_EQ(result->map_layer, "MAP_TSDF");
+  const auto scene = readPlotScene(log_path, options);
+  ASSERT_TRUE(scene) << scene.error();
+  EXPECT_EQ(scene->map_layer, "MAP_TSDF");
+  EXPECT_TRUE(scene->path_is_estimate);
+  EXPECT_EQ(scene->path.size(), 2u);  // the NaN left out
   const std::string notes = [&] {
     std::string all;
-    for (const std::string& note : result->notes) all += note + "\n";
+    for (const std::string& note : scene->notes) all += note + "\n";
     return all;
   }();
   EXPECT_NE(notes.find("no SIM_TRUTH: the path is the STATE_ESTIMATE"), std::string::npos) << notes;
-  const cv::Mat image = cv::imread(options.out, cv::IMREAD_COLOR);
-  ASSERT_FALSE(image.empty());
-  EXPECT_EQ(colourClass(image, result->frame, 2.1, 2.1), "occupied");
-  EXPECT_EQ(colourClass(image, result->frame, 1.5, 1.5), "unknown");  // weight 0
-  EXPECT_EQ(colourClass(image, result->frame, 1.0, 2.9), "free");
-  EXPECT_EQ(colourClass(image, result->frame, 1.5, 0.5), "path");
+  ASSERT_TRUE(scene->map);
+  EXPECT_EQ(cellName(scene->map->at(2.1, 2.1)), "occupied");
+  EXPECT_EQ(cellName(scene->map->at(1.5, 1.5)), "unknown");  // weight 0
+  EXPECT_EQ(cellName(scene->map->at(1.0, 2.9)), "free");
+  EXPECT_TRUE(plotLog(log_path, options)) << "a path through NaN still draws";
 
   options.layer = "esdf";  // asked for explicitly, and absent
-  const auto esdf = plotLog(log_path, options);
+  const auto esdf = readPlotScene(log_path, options);
   ASSERT_TRUE(esdf) << esdf.error();
   EXPECT_EQ(esdf->map_layer, "");
 }
