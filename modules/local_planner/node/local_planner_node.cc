@@ -206,6 +206,8 @@ void LocalPlannerNode::publishReport(const CycleReport& report, double total_ms)
   status.min_distance = report.loco.min_distance;
   status.iterations = report.loco.iterations;
   status.restarts = report.loco.restarts;
+  status.solver_termination = report.loco.termination;
+  status.solver_message = report.loco.termination_message;
   status.solve_time_ms = report.solve_ms;
   publish("PLANNER_STATUS", status);
 

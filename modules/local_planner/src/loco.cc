@@ -243,7 +243,7 @@ class LocoFunction final : public ceres::FirstOrderFunction {
 
 }  // namespace
 
-int LocoProblem::minimize(Derivatives& free) const {
+LocoSolve LocoProblem::minimize(Derivatives& free) const {
   if (free.rows() != spline_.numFree()) {
     throw std::invalid_argument("LocoProblem::minimize: wrongly sized free derivatives");
   }
@@ -256,7 +256,8 @@ int LocoProblem::minimize(Derivatives& free) const {
   solver_options.logging_type = ceres::SILENT;
   ceres::GradientProblemSolver::Summary summary;
   ceres::Solve(solver_options, problem, free.data(), &summary);
-  return static_cast<int>(summary.iterations.size());
+  return {static_cast<int>(summary.iterations.size()),
+          ceres::TerminationTypeToString(summary.termination_type), summary.message};
 }
 
 // ---- the solver ----
@@ -330,7 +331,8 @@ LocoResult Loco::solve(const SplineEnds& ends, bool free_end, const DistanceFiel
         }
       }
     }
-    best.iterations += problem.minimize(free);
+    const LocoSolve solve = problem.minimize(free);
+    best.iterations += solve.iterations;
     const LocoProblem::Check check = problem.check(free);
     const LocoCost cost = problem.cost(free);
     if (rank(check) < best_rank || (rank(check) == best_rank && cost.total < best.cost.total)) {
@@ -342,6 +344,8 @@ LocoResult Loco::solve(const SplineEnds& ends, bool free_end, const DistanceFiel
           best.segments.back().coefficients * JerkSpline::basis(best.segments.back().duration, 0);
       best.cost = cost;
       best.min_distance = check.min_distance;
+      best.termination = solve.termination;
+      best.termination_message = solve.message;
     }
     if (best.accepted) break;
     if (check.collision_free && stretches < kMaxStretches) {

@@ -337,6 +337,8 @@ TEST_F(LocalPlannerNodeTest, ANewRevisionPlansOnceItsStateEstimateIsIn) {
   EXPECT_EQ(status.goal[1], 10);
   for (int i = 0; i < 3; ++i) EXPECT_EQ(status.start_position[i], kStart[i]);
   EXPECT_GT(status.iterations, 0);
+  EXPECT_EQ(status.solver_termination, "CONVERGENCE") << status.solver_message;
+  EXPECT_FALSE(status.solver_message.empty());
   EXPECT_GE(status.min_distance, planner.planner().options().loco.robot_radius);
 
   const polynomial_trajectory_t& msg = recorder.trajectories[0];

@@ -357,6 +357,20 @@ TEST(Loco, SameSeedSameTrajectory) {
   EXPECT_EQ(a.reason, b.reason);
   EXPECT_EQ(a.iterations, b.iterations);
   EXPECT_EQ(a.restarts, b.restarts);
+  EXPECT_EQ(a.termination, b.termination);
+  EXPECT_EQ(a.termination_message, b.termination_message);
+}
+
+// The result keeps how Ceres ended the solve it comes from, in Ceres's own words.
+TEST(Loco, KeepsTheSolversTermination) {
+  LocoOptions options;
+  const LocoResult converged = Loco(options).solve(lineEnds(), false, freeSpace(), 0);
+  EXPECT_TRUE(converged.accepted) << converged.reason;
+  EXPECT_EQ(converged.termination, "CONVERGENCE") << converged.termination_message;
+  EXPECT_FALSE(converged.termination_message.empty());
+  options.max_iterations = 1;
+  const LocoResult cut = Loco(options).solve(lineEnds(), false, wallWithGap(), 0);
+  EXPECT_EQ(cut.termination, "NO_CONVERGENCE") << cut.termination_message;
 }
 
 // A pocket (walls on three sides, floor and ceiling) closed toward the goal: nothing reaches it,
@@ -495,6 +509,7 @@ TEST(Loco, RefusesAStartAboveTheLimits) {
   EXPECT_NE(result.reason.find("exceeds the limits: 1.500 m/s"), std::string::npos)
       << result.reason;
   EXPECT_EQ(result.iterations, 0);
+  EXPECT_EQ(result.termination, "");  // no solve ran
   ends = lineEnds(Eigen::Vector3d(0.5, 0, 0));
   ends.start_acceleration = Eigen::Vector3d(0, 3, 0);
   result = loco.solve(ends, false, freeSpace(), 0);

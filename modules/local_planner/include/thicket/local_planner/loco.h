@@ -131,6 +131,17 @@ struct LocoResult {
   double min_distance = 0;
   int iterations = 0;  ///< solver iterations over all attempts
   int restarts = 0;    ///< random restarts used (time stretches not counted)
+  /// How the solve that gave `segments` ended: Ceres's termination type ("CONVERGENCE",
+  /// "NO_CONVERGENCE", "FAILURE", ...) and its message; empty when no solve ran.
+  std::string termination;
+  std::string termination_message;
+};
+
+/// What one L-BFGS run reports.
+struct LocoSolve {
+  int iterations = 0;
+  std::string termination;  ///< Ceres's termination type, as TerminationTypeToString names it
+  std::string message;      ///< Ceres's summary message
 };
 
 /// The problem one solve works on: a spline (times, free end or not), its fixed derivatives, the
@@ -157,8 +168,8 @@ class LocoProblem {
   };
   Check check(const Derivatives& free) const;
 
-  /// Runs L-BFGS from `free` (updated in place); returns the iterations used.
-  int minimize(Derivatives& free) const;
+  /// Runs L-BFGS from `free` (updated in place).
+  LocoSolve minimize(Derivatives& free) const;
 
  private:
   struct Sample {
