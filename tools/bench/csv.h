@@ -67,4 +67,7 @@ std::string csvCell(const std::string& text);
 /// One CSV line of `cells` (csvCell), with "\n".
 std::string csvLine(const std::vector<std::string>& cells);
 
+/// The whole file at `path`, for parseCsv; throws std::runtime_error when it cannot be read.
+std::string readWholeFile(const std::string& path);
+
 }  // namespace thicket::bench

@@ -52,7 +52,8 @@ namespace thicket::explorer::detail {
 
 namespace {
 
-struct Node {
+// A node of the tree: a view (position and yaw) with its branch from the root.
+struct TreeNode {
   Eigen::Vector3d position;
   double yaw = 0;
   int parent = -1;    // index in the tree; -1 for the root
@@ -127,8 +128,8 @@ class NbvpSelector final : public GoalSelector {
       return proposal;
     }
     const std::vector<int> branch = tree.branchToBest();  // root's child first
-    const Node& first = tree.node(branch.front());
-    const Node& best = tree.node(branch.back());
+    const TreeNode& first = tree.node(branch.front());
+    const TreeNode& best = tree.node(branch.back());
     proposal.found = true;
     proposal.waypoints = {first.position};
     proposal.yaws = {first.yaw};
@@ -139,7 +140,7 @@ class NbvpSelector final : public GoalSelector {
                   first.length, tree.nodes(), reseeded, best.value, best.depth, best.length);
     proposal.reason = text;
     for (size_t i = 1; i < branch.size(); ++i) {
-      const Node& n = tree.node(branch[i]);
+      const TreeNode& n = tree.node(branch[i]);
       memory_.push_back({n.position, n.yaw});
     }
     return proposal;
@@ -153,7 +154,7 @@ class NbvpSelector final : public GoalSelector {
          const ExplorationRequest& request, double clearance)
         : options_(options), maps_(maps), gain_(gain), clearance_(clearance) {
       const Eigen::Vector3d to_goal = request.goal - request.start;
-      Node root;
+      TreeNode root;
       root.position = request.start;
       root.yaw = to_goal.head<2>().norm() > 0 ? std::atan2(to_goal.y(), to_goal.x()) : 0.0;
       nodes_.push_back(root);
@@ -161,13 +162,13 @@ class NbvpSelector final : public GoalSelector {
 
     // Nodes, the root excluded.
     int nodes() const { return static_cast<int>(nodes_.size()) - 1; }
-    const Node& node(int i) const { return nodes_[static_cast<size_t>(i)]; }
+    const TreeNode& node(int i) const { return nodes_[static_cast<size_t>(i)]; }
     double bestValue() const { return nodes_[static_cast<size_t>(best_)].value; }
 
     // Steers from the node nearest `target` toward it and adds the node with `yaw` when the edge
     // is free and the node lies within r of the root. Whether a node was added.
     bool extend(const Eigen::Vector3d& target, double yaw) {
-      const Node& parent = nodes_[static_cast<size_t>(nearest(target))];
+      const TreeNode& parent = nodes_[static_cast<size_t>(nearest(target))];
       const Eigen::Vector3d step = target - parent.position;
       const double distance = step.norm();
       if (!(distance > 0)) return false;
@@ -181,7 +182,7 @@ class NbvpSelector final : public GoalSelector {
       }
       const Gain g = gain_.visibleUnknownFraction(
           *maps_.tsdf, ExplorationGain::cameraAt(position, yaw), options_.subsample);
-      Node n;
+      TreeNode n;
       n.position = position;
       n.yaw = yaw;
       n.parent = static_cast<int>(&parent - nodes_.data());
@@ -220,7 +221,7 @@ class NbvpSelector final : public GoalSelector {
     const MapView& maps_;
     const ExplorationGain& gain_;
     double clearance_;
-    std::vector<Node> nodes_;
+    std::vector<TreeNode> nodes_;
     int best_ = 0;  // the root until a node beats its value 0
   };
 
