@@ -9,6 +9,7 @@
 #include "report_figures.h"
 #include "report_inputs.h"
 #include "report_sections.h"
+#include "thicket/common/subprocess.h"
 #include "trials.h"
 
 namespace thicket::bench {
@@ -70,7 +71,7 @@ std::string writeReport(const std::string& out_dir, const ReportOptions& options
     text += e6Section(report, trials, worlds_dir);
     if (!report.figures.empty()) {
       const std::string error =
-          drawFigures(options.python, script, out_dir, report.figures_dir + "/figures.log");
+          runProgram({options.python, script, out_dir}, report.figures_dir + "/figures.log");
       if (!error.empty()) report.problems.push_back("figures: " + error);
     }
     for (const auto& [figure, caption] : report.captions) {
