@@ -18,6 +18,13 @@ elseif(THICKET_SANITIZE STREQUAL "address")
   # we cannot change, and the object is of the right type.
   set(thicket_sanitize_flags -fsanitize=address,undefined -fno-sanitize=vptr
                              -fno-sanitize-recover=all)
+  # Eigen 3.4 stops trusting malloc's 16-byte alignment under ASan (__SANITIZE_ADDRESS__) and
+  # switches to its own over-allocating aligned_malloc/free, which store the offset before the
+  # block; PCL, Ceres and Open3D were built without ASan and use plain malloc/free. A point cloud
+  # that libpcl_filters allocates and our code frees is then freed the other way (ASan: a read
+  # 8 bytes before the block). ASan's malloc aligns to 16 bytes as glibc's does, so our code keeps
+  # the libraries' choice.
+  add_compile_definitions(EIGEN_MALLOC_ALREADY_ALIGNED=1)
 elseif(THICKET_SANITIZE STREQUAL "thread")
   set(thicket_sanitize_flags -fsanitize=thread)
 else()
