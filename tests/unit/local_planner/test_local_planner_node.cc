@@ -641,7 +641,8 @@ TEST_F(LocalPlannerNodeTest, SetpointsFollowTheCommittedTrajectory) {
   ASSERT_TRUE(planner.publishSetpoint(at));
   loop.drain();
   ASSERT_EQ(recorder.setpoints.size(), 1u);
-  const setpoint_t& sp = recorder.setpoints[0];
+  // A copy: the recorder's next setpoint may move its vector.
+  const setpoint_t sp = recorder.setpoints[0];
   const TrajectoryState s = committed.stateAtUtime(at);
   EXPECT_EQ(sp.utime, at);
   EXPECT_EQ(sp.cycle, 1);
