@@ -1,7 +1,6 @@
 #include "clearance.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -9,10 +8,10 @@
 #include <mutex>
 #include <random>
 #include <stdexcept>
-#include <thread>
 
 #include "csv.h"
 #include "flags.h"
+#include "parallel.h"
 #include "thicket/common/esdf_query.h"
 #include "thicket/common/number_text.h"
 #include "thicket/common/random.h"
@@ -335,17 +334,6 @@ Measured measure(const ClearanceOptions& options, const Flight& flight, const Co
   return measured;
 }
 
-// Runs f(i) for i in [0, n) on `jobs` threads.
-void parallelFor(int n, int jobs, const std::function<void(int)>& f) {
-  std::atomic<int> next{0};
-  auto worker = [&] {
-    for (int i = next++; i < n; i = next++) f(i);
-  };
-  std::vector<std::thread> threads;
-  for (int j = 0; j < std::min(jobs, n); ++j) threads.emplace_back(worker);
-  for (std::thread& thread : threads) thread.join();
-}
-
 std::string csvText(const std::vector<ClearanceRow>& rows) {
   std::string text =
       "scenario,density,voxel_size,noise,variant,flights,frames,voxels,voxel_mean,voxel_p99,"
@@ -426,25 +414,21 @@ std::vector<ClearanceRow> measureClearance(const ClearanceOptions& options) {
   }
 
   const int worlds = options.worlds;
-  const int num_flights = static_cast<int>(specs.size()) * worlds;
-  std::vector<std::optional<Flight>> flights(static_cast<size_t>(num_flights));
+  const size_t num_flights = specs.size() * static_cast<size_t>(worlds);
+  std::vector<std::optional<Flight>> flights(num_flights);
   std::mutex progress;
-  parallelFor(num_flights, options.jobs, [&](int i) {
-    flights[static_cast<size_t>(i)] =
-        fly(options, specs[static_cast<size_t>(i / worlds)], i % worlds);
+  parallelFor(num_flights, options.jobs, [&](size_t i) {
+    const int world = static_cast<int>(i % static_cast<size_t>(worlds));
+    flights[i] = fly(options, specs[i / static_cast<size_t>(worlds)], world);
     const std::lock_guard lock(progress);
-    const Flight& f = *flights[static_cast<size_t>(i)];
+    const Flight& f = *flights[i];
     std::fprintf(stderr, "flew %s d%g seed %llu: %zu frames\n", f.spec.scenario.c_str(),
                  f.spec.density, static_cast<unsigned long long>(f.world.seed), f.frames.size());
   });
 
-  const int num_tasks = num_flights * static_cast<int>(configs.size());
-  std::vector<Measured> measured(static_cast<size_t>(num_tasks));
-  parallelFor(num_tasks, options.jobs, [&](int i) {
-    const int flight = i / static_cast<int>(configs.size());
-    const Config& config = configs[static_cast<size_t>(i) % configs.size()];
-    measured[static_cast<size_t>(i)] =
-        measure(options, *flights[static_cast<size_t>(flight)], config);
+  std::vector<Measured> measured(num_flights * configs.size());
+  parallelFor(measured.size(), options.jobs, [&](size_t i) {
+    measured[i] = measure(options, *flights[i / configs.size()], configs[i % configs.size()]);
   });
 
   std::vector<ClearanceRow> rows;

@@ -17,10 +17,10 @@
 #include <regex>
 #include <set>
 #include <stdexcept>
-#include <thread>
 
 #include "csv.h"
 #include "flags.h"
+#include "parallel.h"
 #include "plans.h"
 #include "progress.h"
 #include "report.h"
@@ -424,29 +424,22 @@ int experimentCommand(const std::vector<std::string>& args) {
   // threads share the rows file and the progress (under locks).
   const FlyContext context{options, record};
   Progress progress(in_shard, done, to_run.size());
-  std::atomic<size_t> next{0};
   std::atomic<size_t> failed{0};
   std::mutex rows_mutex;
   std::string write_error;
-  auto worker = [&] {
-    for (size_t i = next++; i < to_run.size(); i = next++) {
-      const Row row = flyTrial(*to_run[i], context);
-      failed += row.failed();
-      {
-        const std::lock_guard lock(rows_mutex);
-        try {
-          appender->append(csvLine(row.cells));
-        } catch (const std::exception& e) {
-          if (write_error.empty()) write_error = e.what();
-        }
+  parallelFor(to_run.size(), options.jobs, [&](size_t i) {
+    const Row row = flyTrial(*to_run[i], context);
+    failed += row.failed();
+    {
+      const std::lock_guard lock(rows_mutex);
+      try {
+        appender->append(csvLine(row.cells));
+      } catch (const std::exception& e) {
+        if (write_error.empty()) write_error = e.what();
       }
-      progress.finished(*to_run[i], row);
     }
-  };
-  const size_t threads_wanted = std::min(static_cast<size_t>(options.jobs), to_run.size());
-  std::vector<std::thread> threads;
-  for (size_t j = 0; j < threads_wanted; ++j) threads.emplace_back(worker);
-  for (std::thread& thread : threads) thread.join();
+    progress.finished(*to_run[i], row);
+  });
   progress.end();
   appender.reset();
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "experiments.h"
+#include "plans.h"
 #include "row_store.h"
 
 namespace thicket::bench {

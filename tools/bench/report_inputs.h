@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "experiments.h"
+#include "plans.h"
 #include "trials.h"
 
 namespace thicket::bench::report_internal {

@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "experiments.h"
+#include "plans.h"
 #include "report_inputs.h"
 
 namespace thicket::bench::report_internal {

@@ -1,7 +1,6 @@
 #include "subsampling.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -13,11 +12,11 @@
 #include <random>
 #include <set>
 #include <stdexcept>
-#include <thread>
 
 #include <thicket/map_update_t.hpp>
 
 #include "flags.h"
+#include "parallel.h"
 #include "thicket/common/map_update.h"
 #include "thicket/common/node.h"
 #include "thicket/common/statistics.h"
@@ -151,22 +150,17 @@ std::string progressLine(int map, int maps, const Expected<FlownMap>& flown, dou
 // Every map, flown on options.jobs threads, in map order.
 std::vector<Expected<FlownMap>> flyAll(const SubsamplingOptions& options) {
   std::vector<std::optional<Expected<FlownMap>>> slots(static_cast<size_t>(options.maps));
-  std::atomic<int> next{0};
   std::mutex progress;
-  auto worker = [&] {
-    for (int map = next++; map < options.maps; map = next++) {
-      const auto started = std::chrono::steady_clock::now();
-      Expected<FlownMap> flown = flyMap(options, map);
-      const double seconds =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-      const std::lock_guard lock(progress);
-      std::fputs(progressLine(map, options.maps, flown, seconds).c_str(), stderr);
-      slots[static_cast<size_t>(map)].emplace(std::move(flown));
-    }
-  };
-  std::vector<std::thread> threads;
-  for (int j = 0; j < std::min(options.jobs, options.maps); ++j) threads.emplace_back(worker);
-  for (std::thread& thread : threads) thread.join();
+  parallelFor(slots.size(), options.jobs, [&](size_t slot) {
+    const int map = static_cast<int>(slot);
+    const auto started = std::chrono::steady_clock::now();
+    Expected<FlownMap> flown = flyMap(options, map);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    const std::lock_guard lock(progress);
+    std::fputs(progressLine(map, options.maps, flown, seconds).c_str(), stderr);
+    slots[slot].emplace(std::move(flown));
+  });
   std::vector<Expected<FlownMap>> maps;
   for (auto& slot : slots) maps.push_back(std::move(*slot));
   return maps;

@@ -1,7 +1,6 @@
 #include "trials.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,7 +13,6 @@
 #include <optional>
 #include <set>
 #include <stdexcept>
-#include <thread>
 
 #include <lcm/lcm-cpp.hpp>
 #include <thicket/goal_t.hpp>
@@ -26,6 +24,7 @@
 #include "flags.h"
 #include "local_planner_node.h"
 #include "mapper_node.h"
+#include "parallel.h"
 #include "sim_node.h"
 #include "stereo_depth_node.h"
 #include "thicket/common/loop.h"
@@ -605,18 +604,13 @@ std::string progressLine(const TrialResult& r, int trials) {
 // the threads share only the slots of the results (one each) and stderr.
 std::vector<TrialResult> runAll(const RunOptions& options) {
   std::vector<TrialResult> results(static_cast<size_t>(options.trials));
-  std::atomic<int> next{0};
   std::mutex progress;
-  auto worker = [&] {
-    for (int trial = next++; trial < options.trials; trial = next++) {
-      results[static_cast<size_t>(trial)] = attemptTrial(options, trial);
-      const std::lock_guard lock(progress);
-      std::fputs(progressLine(results[static_cast<size_t>(trial)], options.trials).c_str(), stderr);
-    }
-  };
-  std::vector<std::thread> threads;
-  for (int j = 0; j < std::min(options.jobs, options.trials); ++j) threads.emplace_back(worker);
-  for (std::thread& thread : threads) thread.join();
+  parallelFor(results.size(), options.jobs, [&](size_t slot) {
+    const int trial = static_cast<int>(slot);
+    results[slot] = attemptTrial(options, trial);
+    const std::lock_guard lock(progress);
+    std::fputs(progressLine(results[slot], options.trials).c_str(), stderr);
+  });
   return results;
 }
 

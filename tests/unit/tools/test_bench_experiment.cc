@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -18,6 +19,7 @@
 #include "cli.h"
 #include "csv.h"
 #include "experiments.h"
+#include "parallel.h"
 #include "thicket/common/lcm_log.h"
 #include "trials.h"
 
@@ -192,6 +194,18 @@ TEST(BenchExperimentList, EveryTrialIsInExactlyOneShard) {
     // Balanced: the shards' trial counts differ by one at most.
     const auto [fewest, most] = std::minmax_element(sizes.begin(), sizes.end());
     EXPECT_LE(*most - *fewest, 1u) << count << " shards";
+  }
+}
+
+TEST(BenchParallelFor, RunsEveryTaskOnceOnAnyNumberOfThreads) {
+  for (const int jobs : {-1, 0, 1, 2, 7}) {
+    for (const size_t count : {size_t{0}, size_t{1}, size_t{5}, size_t{100}}) {
+      std::vector<std::atomic<int>> runs(count);
+      parallelFor(count, jobs, [&](size_t i) { ++runs[i]; });
+      for (size_t i = 0; i < count; ++i) {
+        EXPECT_EQ(runs[i].load(), 1) << "task " << i << " of " << count << ", " << jobs << " jobs";
+      }
+    }
   }
 }
 
