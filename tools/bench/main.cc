@@ -3,6 +3,7 @@
 //   thicket-bench run --density D --trials N --out DIR [...]   trials of one configuration
 //   thicket-bench experiment --out DIR [...]                   the benchmark's experiments
 //   thicket-bench merge --out DIR IN_DIR...                    gathers shards' output folders
+//   thicket-bench report DIR                                   the report of DIR again
 //   thicket-bench subsampling --out DIR [...]                  experiment E5 alone
 //   thicket-bench clearance --out DIR [...]                    the ESDF's clearance error
 //   thicket-bench [--benchmark_filter=REGEX ...]              Google Benchmark (bench_*.cc)
@@ -15,6 +16,7 @@
 
 #include "clearance.h"
 #include "experiments.h"
+#include "report.h"
 #include "subsampling.h"
 #include "thicket/common/cli.h"
 #include "trials.h"
@@ -46,6 +48,7 @@ int main(int argc, char** argv) {
       {"experiment", "the benchmark's experiments (resumable, shardable)",
        bench::experimentCommand},
       {"merge", "gathers shards' output folders", bench::mergeCommand},
+      {"report", "writes an output folder's report again", bench::reportCommand},
       {"subsampling", "experiment E5 alone", bench::subsamplingCommand},
       {"clearance", "the ESDF's clearance error", bench::clearanceCommand},
   };

@@ -1,11 +1,14 @@
-// writeReport: summary.md and the figures of an output folder, from its trials and logs.
+// writeReport: summary.md and the figures of an output folder, from its trials and logs; and
+// `thicket-bench report`, which writes them again.
 #include "report.h"
 
+#include <cstdio>
 #include <exception>
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include "flags.h"
 #include "report_figures.h"
 #include "report_inputs.h"
 #include "report_sections.h"
@@ -97,6 +100,43 @@ std::string writeReport(const std::string& out_dir, const ReportOptions& options
   std::string error;
   for (const std::string& problem : report.problems) error += (error.empty() ? "" : "\n") + problem;
   return error;
+}
+
+namespace {
+
+struct ReportCommandOptions {
+  std::string dir;
+  std::string help;
+};
+
+constexpr const char* kReportHelp =
+    "thicket-bench report: writes DIR/summary.md and DIR/figures/ again from DIR/trials.csv\n"
+    "(and DIR/run_log.csv, DIR/e5_subsampling.csv and the E4 path files in DIR/paths/ when\n"
+    "present), as experiment and merge do at their end: a report after a change of the\n"
+    "statistics, from trials that did not change. Flies nothing.";
+
+}  // namespace
+
+int reportCommand(const std::vector<std::string>& args) {
+  const std::string command = "report";
+  const auto parsed = parseCommand<ReportCommandOptions>(
+      command, kReportHelp, args, [](CLI::App& app, ReportCommandOptions& o) {
+        app.add_option("DIR", o.dir, "an output folder of thicket-bench experiment or merge")
+            ->required()
+            ->check(CLI::ExistingDirectory);
+      });
+  if (!parsed) return usageError(command, parsed.error());
+  if (!parsed->help.empty()) {
+    std::fputs(parsed->help.c_str(), stdout);
+    return 0;
+  }
+  const std::string error = writeReport(parsed->dir);
+  if (!error.empty()) {
+    warn(command, error);
+    return 1;
+  }
+  std::printf("%s/summary.md written\n", parsed->dir.c_str());
+  return 0;
 }
 
 }  // namespace thicket::bench

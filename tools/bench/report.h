@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace thicket::bench {
 
@@ -30,5 +31,9 @@ struct ReportOptions {
 /// read nothing is written; when only the figures fail the summary is still written and the error
 /// returned.
 std::string writeReport(const std::string& out_dir, const ReportOptions& options = {});
+
+/// `thicket-bench report DIR`: writeReport(DIR) for the user; exit status 0 when the report was
+/// written, 1 when it (or a figure) could not be, 2 for bad arguments.
+int reportCommand(const std::vector<std::string>& args);
 
 }  // namespace thicket::bench

@@ -870,6 +870,27 @@ TEST_F(BenchReport, MissingTrialsWriteNothing) {
   EXPECT_FALSE(std::filesystem::exists(out + "/summary.md"));
 }
 
+TEST_F(BenchReport, TheReportCommandWritesAFoldersReportAgain) {
+  const std::string out = writeFolder();
+  ::testing::internal::CaptureStdout();
+  ::testing::internal::CaptureStderr();
+  EXPECT_EQ(reportCommand({out}), 0);
+  const std::string md = read(out + "/summary.md");
+  EXPECT_NE(md.find("## E1:"), std::string::npos);
+  EXPECT_TRUE(isPng(out + "/figures/e4_forest.png"));
+
+  const std::string empty = tempPath("nothing");
+  std::filesystem::create_directories(empty);
+  EXPECT_EQ(reportCommand({empty}), 1);  // no trials.csv
+  EXPECT_FALSE(std::filesystem::exists(empty + "/summary.md"));
+  EXPECT_EQ(reportCommand({}), 2);
+  EXPECT_EQ(reportCommand({tempPath("no_such_folder")}), 2);
+  EXPECT_EQ(reportCommand({out, out}), 2);
+  ::testing::internal::GetCapturedStdout();
+  const std::string errors = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(errors.find("cannot read " + empty + "/trials.csv"), std::string::npos) << errors;
+}
+
 // ---- CSV (csv.h) ----
 
 TEST(BenchCsv, ReadsQuotedCellsAndFindsATornTail) {
