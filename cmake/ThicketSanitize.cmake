@@ -7,9 +7,12 @@
 set(THICKET_SANITIZE "" CACHE STRING "Sanitizer build: empty (none), address (ASan+UBSan), thread")
 set_property(CACHE THICKET_SANITIZE PROPERTY STRINGS "" address thread)
 
+# Instrumented code runs several times slower: the long tests' time limits are multiplied by this.
+set(THICKET_TEST_TIMEOUT_SCALE 1)
 if(THICKET_SANITIZE STREQUAL "")
   return()
 elseif(THICKET_SANITIZE STREQUAL "address")
+  set(THICKET_TEST_TIMEOUT_SCALE 3)
   # -fno-sanitize-recover=all: a UBSan finding aborts the program, so the test that ran it fails.
   # -fno-sanitize=vptr: LCM 1.3.1's member-function LCM::subscribe (lcm-cpp-impl.hpp, a template,
   # so compiled into our code) keeps the handler object as void* and casts it back to the handler
@@ -27,6 +30,7 @@ elseif(THICKET_SANITIZE STREQUAL "address")
   add_compile_definitions(EIGEN_MALLOC_ALREADY_ALIGNED=1)
 elseif(THICKET_SANITIZE STREQUAL "thread")
   set(thicket_sanitize_flags -fsanitize=thread)
+  set(THICKET_TEST_TIMEOUT_SCALE 10)
 else()
   message(FATAL_ERROR "THICKET_SANITIZE is '${THICKET_SANITIZE}': use '', address or thread")
 endif()

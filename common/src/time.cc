@@ -10,11 +10,12 @@ Timeline::Timeline(std::string what, int reset_after)
   if (reset_after < 0) throw std::invalid_argument("Timeline: reset_after must be >= 0");
 }
 
+std::string notATime(const std::string& what, int64_t utime) {
+  return what + " utime " + std::to_string(utime) + " us is outside [0, 2^62] us: not a time";
+}
+
 Timeline::Result Timeline::offer(int64_t utime) {
-  if (utime < 0 || utime > kMaxUtime) {
-    return {Verdict::kRefused,
-            what_ + " utime " + std::to_string(utime) + " us is outside [0, 2^62] us: not a time"};
-  }
+  if (!isTime(utime)) return {Verdict::kRefused, notATime(what_, utime)};
   if (last_ && utime <= *last_) {
     const bool continues_run = utime < *last_ && run_ > 0 && utime > run_last_;
     run_ = utime < *last_ ? (continues_run ? run_ + 1 : 1) : 0;

@@ -213,6 +213,13 @@ TEST(MissionFaults, EachModuleKilledOnceInLockstepTheMissionStillEndsAtTheGoal) 
 }
 
 TEST(MissionFaults, EachModuleKilledOnceInRealTimeTheMissionStillEndsAtTheGoal) {
+#if defined(__SANITIZE_THREAD__)
+  // A real-time mission needs the modules at their speed. Under ThreadSanitizer (measured: a TSDF
+  // insert 45-63 ms, a trajectory optimization 16 ms, p95 67 ms) the planner's trajectories come
+  // late and are refused, and the vehicle runs out of replans 8 m short of the goal. The lockstep
+  // test above kills the same modules under the sanitizer at whatever speed it runs.
+  GTEST_SKIP() << "a real-time mission cannot keep its rates under ThreadSanitizer";
+#endif
   killEachModuleMidMission(false);
 }
 

@@ -27,11 +27,12 @@ int main(int argc, char** argv) {
     if (options.replan_rate > 0) {
       loop.addTimer(static_cast<int64_t>(1e6 / options.replan_rate), [&node] { node.replan(); });
     }
+    // The setpoint timer's state, here: the timer runs in loop.run(), after the block below.
+    int64_t seen_utime = -1;
+    int64_t seen_at = 0;
     if (options.setpoint_rate > 0) {
       // Setpoints are for the estimator's clock: the newest estimate's time plus the wall time
       // since it arrived.
-      int64_t seen_utime = -1;
-      int64_t seen_at = 0;
       loop.addTimer(static_cast<int64_t>(1e6 / options.setpoint_rate), [&] {
         const auto& state = node.latestState();
         if (!state) return;

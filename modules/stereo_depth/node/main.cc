@@ -150,17 +150,17 @@ int main(int argc, char** argv) {
   thicket::NodeArgs args;
   StereoDepthNodeOptions options;
   FileArgs file_args;
-  const CLI::App* file = nullptr;
+  bool file_mode = false;  // the app is gone after startNode: its subcommand reports by callback
   if (auto exit_code =
           thicket::startNode(argc, argv, kProgram, kUsage, args, options, [&](CLI::App& app) {
             CLI::App* command = app.add_subcommand(
                 "file", "offline, on image files: disparity and/or depth of one stereo pair");
             addFileFlags(*command, file_args);
-            file = command;
+            command->callback([&file_mode] { file_mode = true; });
           })) {
     return *exit_code;
   }
-  if (file->parsed()) return fileMode(file_args);
+  if (file_mode) return fileMode(file_args);
   // Wall-clock time only measures durations; no decision reads it.
   return thicket::runNode(kProgram, args.lcm_url, [&](lcm::LCM& lcm, thicket::Loop& loop) {
     std::unique_ptr<StereoDepthNode> node;

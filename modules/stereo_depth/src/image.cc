@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "thicket/common/time.h"
 #include "thicket/stereo_depth/image.h"
 
 namespace thicket::stereo_depth {
@@ -134,6 +135,12 @@ Expected<GrayImage> decodeImage(const image_t& image) {
 }
 
 Expected<StereoPair> decodeStereoPair(const stereo_image_t& msg, int64_t max_time_difference_us) {
+  // Stamps first: the differences below cannot overflow between stamps in [0, kMaxUtime].
+  for (const auto& [what, utime] : {std::pair{"pair", msg.utime},
+                                    {"left image", msg.left.utime},
+                                    {"right image", msg.right.utime}}) {
+    if (!isTime(utime)) return unexpected(notATime(what, utime));
+  }
   for (const auto& [side, utime] :
        {std::pair{"left", msg.left.utime}, {"right", msg.right.utime}}) {
     if (std::llabs(utime - msg.utime) > max_time_difference_us) {

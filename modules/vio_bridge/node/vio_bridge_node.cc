@@ -57,10 +57,12 @@ void VioBridgeNode::onOdometry(const odometry_t& msg) {
     publish(options_.output_channel, result.estimate);
   }
   // Every estimate paces the reports, also one that was dropped: a VIO that only produces
-  // garbage is reported too. A clock that went back starts a new period.
-  const bool due = reports_ == 0 || msg.utime < last_report_utime_ ||
-                   toSeconds(msg.utime - last_report_utime_) >= options_.report_period;
-  if (due) report(msg.utime);
+  // garbage is reported too. A clock that went back starts a new period. A stamp that is not a
+  // time paces as the nearest one, so that no difference of stamps overflows.
+  const int64_t utime = std::clamp(msg.utime, int64_t{0}, kMaxUtime);
+  const bool due = reports_ == 0 || utime < last_report_utime_ ||
+                   toSeconds(utime - last_report_utime_) >= options_.report_period;
+  if (due) report(utime);
 }
 
 void VioBridgeNode::report(int64_t utime) {

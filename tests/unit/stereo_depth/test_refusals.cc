@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "stereo_test_support.h"
+#include "thicket/common/time.h"
 #include "thicket/stereo_depth/stereo_depth.h"
 
 namespace thicket::stereo_depth {
@@ -200,6 +201,20 @@ TEST(PairRefusals, TimestampsThatDiffer) {
   msg = pairMessage();
   msg.utime += 5000;
   expectRefused(decodeStereoPair(msg), "timestamps differ");
+}
+
+TEST(PairRefusals, StampsThatAreNotTimes) {
+  // Far apart as they are, such stamps once overflowed the difference and passed as equal.
+  stereo_image_t msg = pairMessage();
+  msg.utime = 1;
+  msg.left.utime = msg.right.utime = -std::numeric_limits<int64_t>::max();
+  expectRefused(decodeStereoPair(msg), "left image utime -9223372036854775807 us is outside");
+  msg = pairMessage();
+  msg.utime = std::numeric_limits<int64_t>::min();
+  expectRefused(decodeStereoPair(msg, std::numeric_limits<int64_t>::max()), "pair utime");
+  msg = pairMessage();
+  msg.right.utime = kMaxUtime + 1;
+  expectRefused(decodeStereoPair(msg), "right image utime");
 }
 
 TEST(PairRefusals, ImagesOfDifferentSizes) {

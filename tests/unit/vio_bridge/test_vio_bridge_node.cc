@@ -133,6 +133,27 @@ TEST(VioBridgeNode, ReportsItsHealthOncePerPeriodOfMessageTime) {
   EXPECT_NE(noisy.find("flagged: position_jump"), std::string::npos) << noisy;
 }
 
+TEST(VioBridgeNode, AStampThatIsNotATimeDoesNotStopTheReports) {
+  lcm::LCM lcm{"memq://"};
+  Loop loop{lcm};
+  VioBridgeNode bridge{lcm, VioBridgeNodeOptions{}};
+  TimingRecorder timing{lcm};
+  Node vio_source{"vio", lcm};
+
+  testing::internal::CaptureStderr();
+  vio_source.publish("VIO_ODOMETRY", vio(0));  // reported: the first
+  odometry_t garbage = vio(1);
+  garbage.utime = -std::numeric_limits<int64_t>::max();
+  vio_source.publish("VIO_ODOMETRY", garbage);  // dropped; before the last report: reported
+  vio_source.publish("VIO_ODOMETRY", vio(20));  // a second after the first: reported
+  loop.drain();
+  testing::internal::GetCapturedStderr();
+  ASSERT_EQ(timing.received.size(), 3u);
+  EXPECT_EQ(timing.received[1].utime, 0);  // the garbage stamp, as the nearest time
+  EXPECT_EQ(timing.received[2].utime, vio(20).utime);
+  EXPECT_EQ(bridge.bridge().health().dropped, 1);
+}
+
 TEST(VioBridgeNode, UsesTheConfiguredChannels) {
   lcm::LCM lcm{"memq://"};
   Loop loop{lcm};

@@ -47,6 +47,15 @@ inline std::string formatUtime(int64_t utime) {
 /// stamps cannot overflow int64.
 inline constexpr int64_t kMaxUtime = int64_t{1} << 62;
 
+/// Whether `utime` is a stamp thicket accepts: in [0, kMaxUtime].
+inline bool isTime(int64_t utime) {
+  return utime >= 0 && utime <= kMaxUtime;
+}
+
+/// The refusal of a stamp that is not one: "<what> utime <utime> us is outside [0, 2^62] us: not
+/// a time".
+std::string notATime(const std::string& what, int64_t utime);
+
 /// The stamps of one input stream (poses, frames, estimates), which must increase, with a way
 /// back from a bad one. A stamp not after the last accepted one is refused. But `reset_after`
 /// consecutive refused stamps that increase among themselves mean that the stream's clock
