@@ -603,9 +603,10 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
                  7, 71, 36, 92);
   EXPECT_SUCCESS(cell(per_method, "local_exploration", "success on solvable at collision radius"),
                  5, 8, 63, 31, 86);
-  // random's successful lengths 20, 22, 24, 26, 30, 34: thicket::median takes the upper middle.
-  EXPECT_EQ(cell(per_method, "random", "median path length [m]"), "26.00");
-  EXPECT_EQ(cell(per_method, "local_exploration", "median path length [m]"), "18.00");
+  // random's successful lengths 20, 22, 24, 26, 30, 34: an even count's median is the mean of
+  // the middle two.
+  EXPECT_EQ(cell(per_method, "random", "median path length [m]"), "25.00");
+  EXPECT_EQ(cell(per_method, "local_exploration", "median path length [m]"), "17.50");
   const Table planning =
       tableAfter(md, "### Success on worlds solvable at the planning radius (paper)");
   EXPECT_SUCCESS(cell(planning, "0.1", "local_exploration"), 3, 4, 75, 30, 95);
@@ -648,7 +649,7 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   const Table eth_per_method = tableAfter(md, "### Per method, all densities (eth)");
   EXPECT_EQ(cell(eth_per_method, "local_exploration", "collisions"), "1");
   EXPECT_EQ(cell(eth_per_method, "local_exploration", "zero-collision target"), "MISSED");
-  EXPECT_EQ(cell(eth_per_method, "random", "median path length [m]"), "18.00");
+  EXPECT_EQ(cell(eth_per_method, "random", "median path length [m]"), "17.00");
   EXPECT_EQ(cell(eth_per_method, "random", "solvable at planning radius"), "4");
   EXPECT_SUCCESS(cell(tableAfter(md, "### Success on worlds solvable at the planning radius (eth)"),
                       "0.1", "random"),
@@ -684,22 +685,22 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   EXPECT_SUCCESS(cell(e4, "none", "success d=0.2"), 1, 2, 50, 9, 91);
   EXPECT_SUCCESS(cell(e4, "local_exploration", "success d=0.1"), 2, 2, 100, 34, 100);
   EXPECT_EQ(cell(e4, "none", "collisions"), "0");
-  EXPECT_EQ(cell(e4, "local_exploration", "median path length d=0.2 [m]"), "77.00");
+  EXPECT_EQ(cell(e4, "local_exploration", "median path length d=0.2 [m]"), "76.50");
   // The top-down figure: seed 0 was flown by none only, seed 1 by both.
   EXPECT_NE(md.find("forest50 at density 0.2, seed 1 ("), std::string::npos);
   EXPECT_NE(md.find("flown by none, local_exploration."), std::string::npos);
 
-  // T1: median of per-trial medians (1..8 -> 5), median of p95s (2..16 -> 10), max of maxes.
+  // T1: median of per-trial medians (1..8 -> 4.5), median of p95s (2..16 -> 9), max of maxes.
   const Table t1 = tableAfter(md, "## T1: per-stage timings on the E4 trials");
   EXPECT_EQ(cell(t1, "mapper_tsdf_insert", "trials"), "8");
-  EXPECT_EQ(number(cell(t1, "mapper_tsdf_insert", "median [ms]")), 5.0);
-  EXPECT_EQ(number(cell(t1, "mapper_tsdf_insert", "p95 [ms]")), 10.0);
+  EXPECT_EQ(number(cell(t1, "mapper_tsdf_insert", "median [ms]")), 4.5);
+  EXPECT_EQ(number(cell(t1, "mapper_tsdf_insert", "p95 [ms]")), 9.0);
   EXPECT_EQ(number(cell(t1, "mapper_tsdf_insert", "max [ms]")), 99.0);
   EXPECT_EQ(cell(t1, "mapper_tsdf_insert", "paper [ms]"), "27.0 (TSDF insert)");
-  EXPECT_EQ(cell(t1, "mapper_tsdf_insert", "paper / median"), "5.4×");
-  // local_exploration trials 4..7: medians 4.5, 5.5, 6.5, 7.5 -> 6.5.
+  EXPECT_EQ(cell(t1, "mapper_tsdf_insert", "paper / median"), "6.0×");
+  // local_exploration trials 4..7: medians 4.5, 5.5, 6.5, 7.5 -> 6.0.
   EXPECT_EQ(cell(t1, "explorer_goal_selection", "trials"), "4");
-  EXPECT_EQ(number(cell(t1, "explorer_goal_selection", "median [ms]")), 6.5);
+  EXPECT_EQ(number(cell(t1, "explorer_goal_selection", "median [ms]")), 6.0);
   EXPECT_EQ(cell(t1, "mapper_esdf_update", "trials"), "<no row mapper_esdf_update>");
 
   // E5: sorted by fraction.
@@ -710,7 +711,7 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
   EXPECT_EQ(cell(e5, "0.05", "speed-up"), "3.00×");
 
   // E6: per method; the median of blocked cycles is over the trials in which the obstacle
-  // appeared (thicket::median takes the upper middle of an even count).
+  // appeared (an even count's median is the mean of the middle two).
   const Table e6 = tableAfter(md, "### E6 on paper, density 0.2");
   ASSERT_EQ(e6.size(), 4u);
   EXPECT_EQ(e6[0], (std::vector<std::string>{"method", "trials", "obstacle appeared", "touched it",
@@ -718,12 +719,12 @@ TEST_F(BenchReport, SummaryHoldsTheExpectedNumbers) {
                                              "smallest clearance to the obstacle [m]",
                                              "with a blocked cycle", "median blocked cycles"}));
   EXPECT_EQ(e6[1], (std::vector<std::string>{"none", "3", "2", "0", "0", "1/3 = 33 % [6, 79]",
-                                             "0.7000", "2", "2"}));
+                                             "0.7000", "2", "1.5"}));
   EXPECT_EQ(cell(e6, "rrt_star_optimistic", "obstacle appeared"), "2");
   EXPECT_EQ(cell(e6, "rrt_star_optimistic", "touched it"), "1");
   EXPECT_EQ(cell(e6, "rrt_star_optimistic", "collisions"), "1");
   EXPECT_EQ(cell(e6, "rrt_star_optimistic", "smallest clearance to the obstacle [m]"), "0.3000");
-  EXPECT_EQ(cell(e6, "rrt_star_optimistic", "median blocked cycles"), "1");
+  EXPECT_EQ(cell(e6, "rrt_star_optimistic", "median blocked cycles"), "0.5");
   EXPECT_EQ(cell(e6, "local_exploration", "obstacle appeared"), "3");
   EXPECT_EQ(cell(e6, "local_exploration", "touched it"), "0");
   EXPECT_EQ(cell(e6, "local_exploration", "smallest clearance to the obstacle [m]"), "0.5500");
