@@ -413,13 +413,12 @@ std::vector<ClearanceRow> measureClearance(const ClearanceOptions& options) {
     }
   }
 
-  const int worlds = options.worlds;
-  const size_t num_flights = specs.size() * static_cast<size_t>(worlds);
+  const auto worlds = static_cast<size_t>(options.worlds);
+  const size_t num_flights = specs.size() * worlds;
   std::vector<std::optional<Flight>> flights(num_flights);
   std::mutex progress;
   parallelFor(num_flights, options.jobs, [&](size_t i) {
-    const int world = static_cast<int>(i % static_cast<size_t>(worlds));
-    flights[i] = fly(options, specs[i / static_cast<size_t>(worlds)], world);
+    flights[i] = fly(options, specs[i / worlds], static_cast<int>(i % worlds));
     const std::lock_guard lock(progress);
     const Flight& f = *flights[i];
     std::fprintf(stderr, "flew %s d%g seed %llu: %zu frames\n", f.spec.scenario.c_str(),
@@ -435,10 +434,8 @@ std::vector<ClearanceRow> measureClearance(const ClearanceOptions& options) {
   for (size_t s = 0; s < specs.size(); ++s) {
     for (size_t c = 0; c < configs.size(); ++c) {
       Measured total;
-      for (int w = 0; w < worlds; ++w) {
-        const Measured& m =
-            measured[(s * static_cast<size_t>(worlds) + static_cast<size_t>(w)) * configs.size() +
-                     c];
+      for (size_t w = 0; w < worlds; ++w) {
+        const Measured& m = measured[(s * worlds + w) * configs.size() + c];
         total.voxels.merge(m.voxels);
         total.points.merge(m.points);
         total.margin.merge(m.margin);
@@ -451,7 +448,7 @@ std::vector<ClearanceRow> measureClearance(const ClearanceOptions& options) {
       row.voxel_size = configs[c].voxel_size;
       row.noise = configs[c].noise;
       row.variant = configs[c].variant->name;
-      row.flights = worlds;
+      row.flights = options.worlds;
       row.frames = total.frames;
       row.voxels = total.voxels.summary();
       row.points = total.points.summary();
