@@ -260,6 +260,11 @@ typename MapMirror<Voxel>::Result MapMirror<Voxel>::apply(const map_update_t& ms
       return needSnapshot("gap after revision " + std::to_string(revision_));
     }
     if (part.voxel_size != layer_->voxelSize()) return needSnapshot("the voxel size changed");
+  } else if (layer_ && !needs_snapshot_ && r.map_id == map_id_ && r.revision == revision_ &&
+             part.voxel_size == layer_->voxelSize()) {
+    // Another mirror's snapshot of what this one has: nothing to apply (nor to replan on).
+    return {Outcome::kIgnored,
+            "a snapshot of revision " + std::to_string(r.revision) + ", which the mirror has"};
   }
   if (auto error = decodeBlocks(msg, part)) return {Outcome::kRefused, *error};
   // A part of another revision means the one being received lost a part: drop it. A lost delta

@@ -249,6 +249,10 @@ TEST(MapMirror, AppliesDeltasInOrderAndHealsGapsWithASnapshot) {
   EXPECT_EQ(mirror.revision(), 3);
   for (const auto& part : encodeMapUpdate(mapper, {50, 1, 5, true}, {}, {})) mirror.apply(part);
   EXPECT_TRUE(identicalLayers(*mirror.layer(), mapper));
+  // Another mirror's snapshot of the same revision: nothing to apply, nothing to replan on.
+  const auto twice = mirror.apply(encodeMapUpdate(mapper, {50, 1, 5, true}, {}, {})[0]);
+  EXPECT_EQ(twice.outcome, Outcome::kIgnored);
+  EXPECT_EQ(twice.reason, "a snapshot of revision 5, which the mirror has");
   EXPECT_EQ(mirror.apply(delta(6, {})[0]).outcome, Outcome::kApplied);
 
   // A restarted mapper (new map id) needs a snapshot too, even at the next revision number.

@@ -199,6 +199,29 @@ std::vector<int64_t> MapperNode::integrateReady() {
 
 void MapperNode::onRequest(const map_request_t& msg) {
   const std::string who = msg.requester.empty() ? "a mirror" : msg.requester;
+  if (msg.layer == map_update_t::LAYER_TSDF || msg.layer == map_update_t::LAYER_ESDF) {
+    // Every mirror takes a snapshot when it arrives, so one answers every mirror that asked for
+    // this revision; one repeat serves a mirror that lost it, later requests wait for the next
+    // revision (whose delta shows the gap, and the next snapshot heals it).
+    const int layer = msg.layer;
+    if (snapshot_revision_[layer] != mapper_.revision()) {
+      snapshot_revision_[layer] = mapper_.revision();
+      snapshots_sent_[layer] = 0;
+    }
+    if (snapshots_sent_[layer] >= kSnapshotsPerRevision) {
+      ++requests_refused_;
+      // Said once per revision and layer: a flood of requests is not answered by one of statuses.
+      if (snapshots_sent_[layer] > kSnapshotsPerRevision) return;
+      snapshots_sent_[layer] = kSnapshotsPerRevision + 1;
+      publishStatus(msg.utime, mapper_status_t::RESULT_REFUSED,
+                    "map request from " + who + " refused: the snapshot of layer " +
+                        std::to_string(layer) + " at revision " +
+                        std::to_string(mapper_.revision()) + " went out " +
+                        std::to_string(kSnapshotsPerRevision) + " times already");
+      return;
+    }
+    ++snapshots_sent_[layer];
+  }
   if (msg.layer == map_update_t::LAYER_TSDF) {
     publishLayer("MAP_TSDF", mapper_.tsdf(), mapper_.utime(), mapper_.revision(), true, {}, {});
   } else if (msg.layer == map_update_t::LAYER_ESDF) {

@@ -50,6 +50,9 @@ class MapperNode : public Node {
 
   const Mapper& mapper() const { return mapper_; }
   int64_t mapId() const { return map_id_; }
+  /// Snapshot requests refused because the layer's snapshot at the current revision had already
+  /// gone out twice (one for the mirrors that asked, one repeat for a mirror that lost it).
+  int64_t requestsRefused() const { return requests_refused_; }
   /// Frames refused, whether they did not decode or the mapper refused them.
   int64_t framesRefused() const { return mapper_.framesRefused() + undecodable_frames_; }
   /// "N frames integrated, M refused; tsdf_insert median X ms, esdf_update median Y ms".
@@ -86,6 +89,12 @@ class MapperNode : public Node {
   std::optional<int64_t> checkpoint_utime_;  // the last checkpoint written
   std::vector<double> tsdf_ms_, esdf_ms_;
   int64_t undecodable_frames_ = 0;
+  // Snapshots sent per layer at the current revision: at most kSnapshotsPerRevision, so that a
+  // flood of requests cannot turn into a flood of snapshots.
+  static constexpr int kSnapshotsPerRevision = 2;
+  int64_t snapshot_revision_[2] = {-1, -1};
+  int snapshots_sent_[2] = {0, 0};
+  int64_t requests_refused_ = 0;
 };
 
 }  // namespace thicket::mapper

@@ -182,12 +182,13 @@ class LocalPlannerNodeTest : public ::testing::Test {
     for (const map_update_t& part : parts) world.publish("MAP_ESDF", part);
   }
 
-  // `goal` as the mission, an estimate at rest at kStart at t and an all-free snapshot at t: one
-  // planned cycle. Returns whether it planned.
-  bool planFromStart(const goal_t& goal, int64_t t) {
+  // `goal` as the mission, an estimate at rest at kStart at t and an all-free snapshot at t (map
+  // revision `revision`: a snapshot of the revision the mirror has is ignored): one planned
+  // cycle. Returns whether it planned.
+  bool planFromStart(const goal_t& goal, int64_t t, int64_t revision = 1) {
     world.publish("MISSION_GOAL", goal);
     world.publish("STATE_ESTIMATE", odometryAt(t, kStart));
-    publishAll(snapshot(freeEsdf(), t, 1));
+    publishAll(snapshot(freeEsdf(), t, revision));
     loop.drain();
     if (recorder.statuses.size() != 1u) return false;
     EXPECT_EQ(recorder.statuses[0].state, +planner_status_t::STATE_PLANNED)
@@ -196,8 +197,8 @@ class LocalPlannerNodeTest : public ::testing::Test {
            planner.planner().committed().has_value();
   }
   // The same toward a mission goal to the north-east.
-  bool planNorthEast(int64_t t) {
-    return planFromStart(goalMsg(51, {Eigen::Vector3d(10, 10, 1.5)}), t);
+  bool planNorthEast(int64_t t, int64_t revision = 1) {
+    return planFromStart(goalMsg(51, {Eigen::Vector3d(10, 10, 1.5)}), t, revision);
   }
 
   lcm::LCM lcm{"memq://"};
@@ -683,7 +684,7 @@ TEST_F(LocalPlannerNodeTest, AGoalWithYawsIsFlownFacingThem) {
 
   // A goal without yaws goes back to facing along the velocity.
   recorder.clear();
-  ASSERT_TRUE(planNorthEast(t + kSecond));
+  ASSERT_TRUE(planNorthEast(t + kSecond, 2));
   ASSERT_EQ(recorder.trajectories.size(), 1u);
   EXPECT_EQ(recorder.trajectories[0].yaw_policy, +polynomial_trajectory_t::YAW_ALONG_VELOCITY);
 }

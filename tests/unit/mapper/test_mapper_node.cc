@@ -289,6 +289,52 @@ TEST_F(MapperNodeTest, BadInputIsRefusedWithAReasonAndNeverReachesTheMap) {
   EXPECT_EQ(mapper.mapper().framesRefused(), 2);  // the others never decoded
 }
 
+// A flood of snapshot requests at one revision gets two snapshots per layer (one for every mirror
+// that asked, one repeat for a mirror that lost it) and one refusal status; the next revision is
+// served again.
+TEST_F(MapperNodeTest, SnapshotRequestsAreLimitedPerRevision) {
+  sensors.publish("STATE_ESTIMATE", poseMsg(1'000'000, bodyAt(0)));
+  sensors.publish("CAMERA_DEPTH", frameAt(renderer, 0, 1'000'000));
+  loop.drain();
+  ASSERT_EQ(mapper.mapper().revision(), 1);
+  int snapshots = 0;
+  Node counter("counter", lcm);
+  counter.subscribe<map_update_t>(
+      "MAP_ESDF",
+      [&](const map_update_t& m, const MessageInfo&) {
+        if (m.full_snapshot && m.part_index == 0) ++snapshots;
+      },
+      1000);
+  map_request_t request{};
+  request.layer = map_update_t::LAYER_ESDF;
+  request.requester = "flood";
+  const size_t statuses_before = observer.statuses.size();
+  for (int i = 0; i < 100; ++i) {
+    request.utime = 1'000'000 + i;
+    sensors.publish("MAP_REQUEST", request);
+    loop.drain();
+  }
+  // The observer's mirror asked for revision 1 when it started: the flood gets the repeat only.
+  EXPECT_EQ(snapshots, 1);
+  EXPECT_EQ(mapper.requestsRefused(), 99);
+  int refusals = 0;
+  for (size_t i = statuses_before; i < observer.statuses.size(); ++i) {
+    if (observer.statuses[i].result == mapper_status_t::RESULT_REFUSED) {
+      ++refusals;
+      EXPECT_NE(observer.statuses[i].reason.find("went out 2 times already"), std::string::npos)
+          << observer.statuses[i].reason;
+    }
+  }
+  EXPECT_EQ(refusals, 1);
+
+  sensors.publish("STATE_ESTIMATE", poseMsg(1'500'000, bodyAt(0.5)));
+  sensors.publish("CAMERA_DEPTH", frameAt(renderer, 0.5, 1'500'000));
+  loop.drain();
+  sensors.publish("MAP_REQUEST", request);
+  loop.drain();
+  EXPECT_EQ(snapshots, 2);  // revision 2's
+}
+
 // A map saved when a node stops is where the next node, told to load it, continues: same layers
 // and revision, mirrors of the new map catch up through a snapshot, and the first frame's ESDF
 // equals one computed from scratch on the continued TSDF.
