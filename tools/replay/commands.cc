@@ -22,15 +22,16 @@ const std::vector<ReferenceFlight>& referenceFlights() {
        {"paper", 0.3, 6, "local_exploration", 10},
        "stuck cycles whose intermediate goals the planner cannot reach either (holding)"},
       {"paper_rrt_star_conservative",
-       {"paper", 0.3, 5, "rrt_star_conservative", 10},
-       "intermediate goals from OMPL's RRT*, a committed trajectory a newer map blocks"},
+       {"paper", 0.3, 3, "rrt_star_conservative", 7},
+       "stuck cycles answered by OMPL's RRT*: no node nearer the goal twice, then two branches "
+       "toward it"},
       {"paper_none",
        {"paper", 0.3, 3, "none", 10},
        "no explorer: the planner alone, planned cycles, then stuck cycles that hold position"},
       {"paper_short_frontier_memory",
-       {"paper_short", 0.5, 9, "frontier_memory", 8},
-       "beyond the paper: a look around at a stuck place, a path to a frontier viewpoint flown "
-       "facing its yaw by the carrot after turning first, a look at the viewpoint"},
+       {"paper_short", 0.5, 12, "frontier_memory", 8},
+       "beyond the paper: a committed trajectory a newer map blocks, a look around at a stuck "
+       "place, a path to a frontier viewpoint flown after turning first, a look at the viewpoint"},
       {"paper_dynamic_obstacle",
        {"paper", 0.2, 10, "local_exploration", 10, true},
        "a tree appears on the committed path: the re-check finds it blocked, commits a stop and "
