@@ -8,9 +8,14 @@
 //                        [--max-disparity N] [--config stereo_depth.yaml]
 //       offline, on image files: disparity as PFM in pixels of the (rectified) left image, 0 where
 //       invalid; depth as a 16-bit PNG in millimetres, 0 where invalid.
+//   thicket-stereo-depth calibrate --left L1 L2 ... --right R1 R2 ... --corners 9 6
+//                        --square 0.025 [--id NAME] --out calibration.yaml
+//       the calibration the node reads (calibration_file), from chessboard views; prints the
+//       reprojection errors.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -21,6 +26,7 @@
 #include "thicket/common/cli.h"
 #include "thicket/common/loop.h"
 #include "thicket/common/node_main.h"
+#include "thicket/stereo_depth/calibrate.h"
 
 namespace {
 
@@ -30,7 +36,8 @@ const char* const kProgram = "thicket-stereo-depth";
 
 const char* const kUsage =
     "thicket-stereo-depth: stereo pairs to depth images. The node takes STEREO and publishes\n"
-    "CAMERA_DEPTH; `file` runs the same pipeline on image files.";
+    "CAMERA_DEPTH; `file` runs the same pipeline on image files, `calibrate` writes the\n"
+    "calibration file from chessboard views.";
 
 // The arguments of the `file` command.
 struct FileArgs {
@@ -68,6 +75,71 @@ void addFileFlags(CLI::App& file, FileArgs& a) {
   file.add_option("--max-disparity", a.max_disparity, "largest disparity searched [px]")
       ->check(thicket::cli::integer(1, 1024));
   file.add_option("--config", a.config, "parameter file (YAML), as the node's")->check(nonEmpty());
+}
+
+// The arguments of the `calibrate` command.
+struct CalibrateArgs {
+  std::vector<std::string> left, right;
+  std::vector<int> corners;
+  double square = 0;
+  std::string id, out;
+};
+
+void addCalibrateFlags(CLI::App& calibrate, CalibrateArgs& a) {
+  using thicket::cli::nonEmpty;
+  calibrate.add_option("--left", a.left, "the left camera's views of the board, in order")
+      ->required()
+      ->check(nonEmpty());
+  calibrate.add_option("--right", a.right, "the right camera's views, in the same order")
+      ->required()
+      ->check(nonEmpty());
+  calibrate.add_option("--corners", a.corners, "inner corners of the board: columns rows")
+      ->required()
+      ->expected(2)
+      ->check(thicket::cli::integer(2, 1000));
+  calibrate
+      .add_option("--square", a.square, "side of one square of the board [m] (the scale of T)")
+      ->required()
+      ->check(thicket::cli::number(std::nextafter(0.0, 1.0), 10.0));
+  calibrate.add_option("--id", a.id, "calibration_id the pairs must carry (default: none)");
+  calibrate.add_option("--out", a.out, "the calibration file to write (YAML)")
+      ->required()
+      ->check(nonEmpty());
+}
+
+int calibrateMode(const CalibrateArgs& a) {
+  const auto fail = [](const std::string& message) { return thicket::failNode(kProgram, message); };
+  if (a.left.size() != a.right.size()) {
+    return fail("calibrate: " + std::to_string(a.left.size()) + " left and " +
+                std::to_string(a.right.size()) + " right images: give them in pairs");
+  }
+  std::vector<GrayPair> pairs;
+  for (size_t i = 0; i < a.left.size(); ++i) {
+    auto left = readGrayImageFile(a.left[i]);
+    if (!left) return fail(left.error());
+    auto right = readGrayImageFile(a.right[i]);
+    if (!right) return fail(right.error());
+    pairs.push_back({a.left[i], std::move(*left), std::move(*right)});
+  }
+  const auto result = calibrateStereo(pairs, {a.corners.at(0), a.corners.at(1), a.square}, a.id);
+  if (!result) return fail("calibrate: " + result.error());
+  for (const std::string& skipped : result->pairs_skipped) {
+    std::printf("%s: skipped %s\n", kProgram, skipped.c_str());
+  }
+  {
+    std::ofstream file(a.out, std::ios::binary | std::ios::trunc);
+    file << stereoCalibrationYaml(result->calibration);
+    if (!file.flush()) return fail("calibrate: cannot write " + a.out);
+  }
+  const StereoCalibration& c = result->calibration;
+  std::printf(
+      "%s: wrote %s from %d of %zu pairs (%dx%d): reprojection error %.3f px left, %.3f px "
+      "right, %.3f px stereo; epipolar error %.3f px; focal lengths %.1f / %.1f px, baseline "
+      "%.4f m\n",
+      kProgram, a.out.c_str(), result->pairs_used, pairs.size(), c.width, c.height,
+      result->rms_left, result->rms_right, result->rms_stereo, result->epipolar_error,
+      c.camera_matrix_left(0, 0), c.camera_matrix_right(0, 0), c.T.norm());
+  return 0;
 }
 
 int fileMode(const FileArgs& a) {
@@ -150,17 +222,24 @@ int main(int argc, char** argv) {
   thicket::NodeArgs args;
   StereoDepthNodeOptions options;
   FileArgs file_args;
-  bool file_mode = false;  // the app is gone after startNode: its subcommand reports by callback
+  CalibrateArgs calibrate_args;
+  // The app is gone after startNode: its subcommands report by callback.
+  bool file_mode = false, calibrate_mode = false;
   if (auto exit_code =
           thicket::startNode(argc, argv, kProgram, kUsage, args, options, [&](CLI::App& app) {
             CLI::App* command = app.add_subcommand(
                 "file", "offline, on image files: disparity and/or depth of one stereo pair");
             addFileFlags(*command, file_args);
             command->callback([&file_mode] { file_mode = true; });
+            CLI::App* calibrate = app.add_subcommand(
+                "calibrate", "the calibration file from chessboard views (cv::stereoCalibrate)");
+            addCalibrateFlags(*calibrate, calibrate_args);
+            calibrate->callback([&calibrate_mode] { calibrate_mode = true; });
           })) {
     return *exit_code;
   }
   if (file_mode) return fileMode(file_args);
+  if (calibrate_mode) return calibrateMode(calibrate_args);
   // Wall-clock time only measures durations; no decision reads it.
   return thicket::runNode(kProgram, args.lcm_url, [&](lcm::LCM& lcm, thicket::Loop& loop) {
     std::unique_ptr<StereoDepthNode> node;

@@ -3,7 +3,9 @@
 // 16-bit millimetre depth PNG from image files, or says why not.
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -159,6 +161,58 @@ TEST_F(StereoDepthFileMode, RefusesWithAMessageAndExitCode2) {
   refused("file --calib @calib.yaml --left @small.png --right @small.png --depth-out @z.png",
           "the calibration is for 752x480");
   refused("file --calib @calib.yaml --left @left.png --right @right.png --bogus 1", "--bogus");
+}
+
+// `calibrate` on OpenCV's own stereo chessboard set (a real camera pair, 9 x 6 inner corners; the
+// opencv-doc package, installed by scripts/setup): it writes a calibration the node loads and
+// rectifies with, the reprojection errors of a real calibration, and the right camera to the
+// right of the left one. Square size 1 as in OpenCV's sample: T is then in squares.
+TEST(StereoDepthCli, CalibrateFromOpenCvsStereoChessboardSet) {
+  const std::string data = "/usr/share/doc/opencv-doc/examples/data/";
+  if (!std::filesystem::exists(data + "left01.jpg")) {
+    GTEST_SKIP() << "OpenCV's sample images are not installed (apt-get install opencv-doc)";
+  }
+  std::string left = " --left", right = " --right";
+  for (int i : {1, 2, 3, 4, 5, 6, 7, 8, 9, 11, 12, 13, 14}) {
+    const std::string n = (i < 10 ? "0" : "") + std::to_string(i);
+    left += " " + data + "left" + n + ".jpg";
+    right += " " + data + "right" + n + ".jpg";
+  }
+  const std::string out =
+      ::testing::TempDir() + "/calibrate_" + std::to_string(::getpid()) + ".yaml";
+  const CliResult result = stereoDepth("calibrate" + left + right +
+                                       " --corners 9 6 --square 1 --id opencv --out " + out);
+  ASSERT_EQ(result.status, 0) << result.output;
+  EXPECT_NE(result.output.find("from 13 of 13 pairs (640x480)"), std::string::npos)
+      << result.output;
+  const auto calibration = loadStereoCalibration(out);
+  ASSERT_TRUE(calibration) << calibration.error();
+  EXPECT_EQ(calibration->calibration_id, "opencv");
+  EXPECT_GT(calibration->camera_matrix_left(0, 0), 400);
+  EXPECT_LT(calibration->camera_matrix_left(0, 0), 700);
+  EXPECT_LT(calibration->T.x(), -3.0);
+  EXPECT_LT(std::abs(calibration->T.y()) + std::abs(calibration->T.z()), 0.5);
+  StereoDepthOptions options;
+  options.calibration_file = out;
+  EXPECT_TRUE(StereoDepth::create(options));
+  const double stereo_rms = [&] {
+    const auto at = result.output.find("px right, ");
+    return at == std::string::npos ? 99.0 : std::stod(result.output.substr(at + 10));
+  }();
+  EXPECT_LT(stereo_rms, 1.0) << result.output;
+
+  // Refused with a message: unpaired images, a board that is not there.
+  const CliResult unpaired = stereoDepth("calibrate" + left + " --right " + data +
+                                         "right01.jpg --corners 9 6 --square 1 --out " + out);
+  EXPECT_EQ(unpaired.status, 2);
+  EXPECT_NE(unpaired.output.find("13 left and 1 right images"), std::string::npos)
+      << unpaired.output;
+  const CliResult wrong_board =
+      stereoDepth("calibrate" + left + right + " --corners 7 7 --square 1 --out " + out);
+  EXPECT_EQ(wrong_board.status, 2);
+  EXPECT_NE(wrong_board.output.find("0 pairs; at least 3 are needed"), std::string::npos)
+      << wrong_board.output;
+  std::remove(out.c_str());
 }
 
 }  // namespace
