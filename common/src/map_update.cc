@@ -64,15 +64,15 @@ const char* decodeVoxel(const uint8_t*& in, EsdfVoxel& voxel) {
 }
 
 template <class Voxel>
-map_block_t encodeBlock(const Block<Voxel>& block) {
+map_block_t encodeBlock(const Block<Voxel>& block, bool compress) {
   std::vector<uint8_t> raw(kVoxelsPerBlock * VoxelWire<Voxel>::kBytes);
   uint8_t* out = raw.data();
   for (const Voxel& voxel : block.voxels) encodeVoxel(voxel, out);
   map_block_t msg;
   for (int i = 0; i < 3; ++i) msg.index[i] = block.index[i];
-  msg.compression = map_block_t::COMPRESSION_ZSTD;
+  msg.compression = compress ? map_block_t::COMPRESSION_ZSTD : map_block_t::COMPRESSION_NONE;
   msg.raw_size = static_cast<int32_t>(raw.size());
-  msg.data = zstdCompress(raw);
+  msg.data = compress ? zstdCompress(raw) : std::move(raw);
   msg.size = static_cast<int32_t>(msg.data.size());
   return msg;
 }
@@ -139,7 +139,7 @@ template <class Voxel>
 std::vector<map_update_t> encodeMapUpdate(const Layer<Voxel>& layer, const MapRevision& revision,
                                           const std::vector<BlockIndex>& changed,
                                           const std::vector<BlockIndex>& removed,
-                                          size_t max_message_bytes) {
+                                          size_t max_message_bytes, bool compress) {
   std::vector<BlockIndex> blocks;
   if (revision.full_snapshot) {
     blocks = layer.blockIndices();
@@ -155,7 +155,7 @@ std::vector<map_update_t> encodeMapUpdate(const Layer<Voxel>& layer, const MapRe
   std::vector<map_update_t> parts = {empty};
   size_t part_bytes = 0;
   for (const BlockIndex& index : blocks) {
-    map_block_t block = encodeBlock(*layer.block(index));
+    map_block_t block = encodeBlock(*layer.block(index), compress);
     if (part_bytes > 0 && part_bytes + block.data.size() > max_message_bytes) {
       parts.push_back(empty);
       part_bytes = 0;
@@ -330,10 +330,10 @@ map_request_t MapMirror<Voxel>::request(int64_t utime, const std::string& reques
 
 template std::vector<map_update_t> encodeMapUpdate(const Layer<TsdfVoxel>&, const MapRevision&,
                                                    const std::vector<BlockIndex>&,
-                                                   const std::vector<BlockIndex>&, size_t);
+                                                   const std::vector<BlockIndex>&, size_t, bool);
 template std::vector<map_update_t> encodeMapUpdate(const Layer<EsdfVoxel>&, const MapRevision&,
                                                    const std::vector<BlockIndex>&,
-                                                   const std::vector<BlockIndex>&, size_t);
+                                                   const std::vector<BlockIndex>&, size_t, bool);
 template Expected<MapUpdatePart<TsdfVoxel>> decodeMapUpdate(const map_update_t&);
 template Expected<MapUpdatePart<EsdfVoxel>> decodeMapUpdate(const map_update_t&);
 template class MapMirror<TsdfVoxel>;

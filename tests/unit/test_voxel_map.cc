@@ -165,6 +165,26 @@ TEST(MapUpdate, SnapshotsRoundTripInPartsUnderTheSizeLimit) {
   EXPECT_FALSE(mirror.needsSnapshot());
 }
 
+// Raw blocks (a graph inside one process) give the mirror the same layer, split by their raw size.
+TEST(MapUpdate, RawBlocksRoundTripLikeCompressedOnes) {
+  const TsdfLayer layer = randomTsdf(4, 20);
+  const std::vector<map_update_t> parts =
+      encodeMapUpdate(layer, {5, 7, 12, true}, {}, {}, 100 * 1024, false);
+  ASSERT_GT(parts.size(), 3u);
+  MapMirror<TsdfVoxel> mirror;
+  for (const map_update_t& part : parts) {
+    EXPECT_LE(part.getEncodedSize(), 100 * 1024 + 40 * 1024);
+    for (const map_block_t& block : part.blocks) {
+      EXPECT_EQ(block.compression, map_block_t::COMPRESSION_NONE);
+      EXPECT_EQ(block.size, block.raw_size);
+    }
+    mirror.apply(part);
+  }
+  ASSERT_NE(mirror.layer(), nullptr);
+  EXPECT_TRUE(identicalLayers(*mirror.layer(), layer));
+  EXPECT_EQ(mirror.revision(), 12);
+}
+
 TEST(MapUpdate, EsdfVoxelsKeepTheirFlags) {
   EsdfLayer layer(0.2);
   Block<EsdfVoxel>& block = layer.allocateBlock({1, -2, 0});

@@ -20,8 +20,10 @@ void MapperNodeOptions::declare(Params& p) {
   p("map_id", map_id, "identifies the map to mirrors; 0: from the wall clock at start");
   p("depth_channel", depth_channel, "depth frames in (depth_image_t)");
   p("state_channel", state_channel, "body poses in (odometry_t)");
-  p("max_message_kib", max_message_kib, "compressed block bytes per map message [KiB]",
+  p("max_message_kib", max_message_kib, "block bytes (as sent) per map message [KiB]",
     Range::between(16, 900));
+  p("compress_blocks", compress_blocks,
+    "zstd-compress map blocks; off: raw blocks, for a graph inside one process");
   p("load_map", load_map, "a saved map to continue from; empty: start with an empty map");
   p("save_map", save_map, "where to save the map when the node stops; empty: not saved");
   p("checkpoint", checkpoint,
@@ -243,7 +245,8 @@ void MapperNode::publishLayer(const std::string& channel, const Layer<Voxel>& la
                               const std::vector<BlockIndex>& removed) {
   const MapRevision header{utime, map_id_, revision, full_snapshot};
   for (const map_update_t& part : encodeMapUpdate(
-           layer, header, changed, removed, static_cast<size_t>(options_.max_message_kib) * 1024)) {
+           layer, header, changed, removed, static_cast<size_t>(options_.max_message_kib) * 1024,
+           options_.compress_blocks)) {
     publish(channel, part);
   }
 }

@@ -24,8 +24,12 @@ struct MapperNodeOptions {
   int64_t map_id = 0;
   std::string depth_channel = "CAMERA_DEPTH";
   std::string state_channel = "STATE_ESTIMATE";
-  /// Compressed block bytes per map message; a revision is split into parts above this [KiB].
+  /// Block bytes (as sent) per map message; a revision is split into parts above this [KiB].
   int max_message_kib = 256;
+  /// zstd-compress the blocks of MAP_TSDF/MAP_ESDF. Off sends raw blocks: for a graph inside one
+  /// process (the benchmark's memq://), where compressing and decompressing every block costs
+  /// more than copying it; over UDP or into a log, keep it on.
+  bool compress_blocks = true;
   /// A map saved by thicket-map or a previous run to continue from ("": start empty).
   std::string load_map;
   /// Where the map is saved when the node stops ("": not saved).

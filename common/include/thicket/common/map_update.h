@@ -43,19 +43,21 @@ struct MapRevision {
   bool full_snapshot = false;
 };
 
-/// Most compressed block bytes in one message: a message holds at least one block, so it stays
+/// Most block bytes (as sent) in one message: a message holds at least one block, so it stays
 /// under this plus one block (about 33 kB uncompressed at worst).
 constexpr size_t kDefaultMaxMessageBytes = 256 * 1024;
 
 /// The messages (parts) of one revision: the blocks listed in `changed` (that exist in the layer),
 /// sorted, and the indices in `removed`; a full snapshot sends every block of the layer and
 /// ignores both lists. Always at least one message, so that a revision without changes still
-/// advances the mirrors.
+/// advances the mirrors. Blocks are zstd-compressed unless `compress` is false (raw blocks: for a
+/// transport inside one process, where compressing costs more than copying).
 template <class Voxel>
 std::vector<map_update_t> encodeMapUpdate(const Layer<Voxel>& layer, const MapRevision& revision,
                                           const std::vector<BlockIndex>& changed,
                                           const std::vector<BlockIndex>& removed,
-                                          size_t max_message_bytes = kDefaultMaxMessageBytes);
+                                          size_t max_message_bytes = kDefaultMaxMessageBytes,
+                                          bool compress = true);
 
 /// One validated message: its blocks decoded.
 template <class Voxel>
