@@ -213,6 +213,16 @@ Expected<GrayImage> readGrayImageFile(const std::string& path) {
   return fromMat(gray);
 }
 
+GrayImage downscaleGray(const GrayImage& image, int factor) {
+  if (factor < 1 || image.width % factor != 0 || image.height % factor != 0) {
+    throw std::invalid_argument("downscaleGray: the sides must be multiples of the factor");
+  }
+  cv::Mat small;
+  cv::resize(asMat(image), small, cv::Size(image.width / factor, image.height / factor), 0, 0,
+             cv::INTER_AREA);
+  return fromMat(small);
+}
+
 std::string writeGrayImageFile(const std::string& path, const GrayImage& image) {
   try {
     if (!cv::imwrite(path, asMat(image))) return "cannot write " + path;

@@ -27,6 +27,10 @@ void StereoDepthOptions::declare(Params& p) {
   p("max_time_difference_us", max_time_difference_us,
     "largest tolerated difference between the left, right and pair timestamps [us]",
     Range::atLeast(0));
+  p("downscale", downscale,
+    "match at 1/this of the resolution (1 or 2): disparity, depth and intrinsics at that size; "
+    "num_disparities in matched pixels",
+    Range::between(1, 2));
   p.group("matcher", matcher, "semi-global matching (OpenCV StereoSGBM) and the depth range");
   p.group("outliers", outliers, "statistical outlier removal on the point cloud (PCL)");
 }
@@ -77,7 +81,8 @@ Expected<StereoDepth> StereoDepth::create(const StereoDepthOptions& options,
   if (calibration) {
     auto created = Rectifier::create(*calibration, options.rectify_alpha);
     if (!created) return unexpected(created.error());
-    if (const std::string narrow = tooNarrow(calibration->width, options.matcher);
+    if (const std::string narrow =
+            tooNarrow(calibration->width / options.downscale, options.matcher);
         !narrow.empty()) {
       return unexpected("the calibration's " + narrow);
     }
@@ -140,8 +145,29 @@ Expected<StereoFrame> StereoDepth::process(const StereoPair& pair,
     frame.baseline = r.baseline;
     frame.has_depth = r.fx > 0 && r.baseline > 0;
   }
-  if (const std::string narrow = tooNarrow(width, options_.matcher); !narrow.empty()) {
+  const int k = options_.downscale;
+  if (width % k != 0 || height % k != 0) {
+    return unexpected("the images are " + size(width, height) + ": downscale " + std::to_string(k) +
+                      " needs sides that are multiples of it");
+  }
+  if (const std::string narrow = tooNarrow(width / k, options_.matcher); !narrow.empty()) {
     return unexpected("the pair's " + narrow);
+  }
+  GrayImage left_small, right_small;
+  if (k > 1) {
+    // Output pixel u averages input pixels k u .. k u + k - 1, whose centres average k u +
+    // (k - 1) / 2: so x = k u + (k - 1) / 2 in the input maps to u.
+    left_small = downscaleGray(*left, k);
+    right_small = downscaleGray(*right, k);
+    left = &left_small;
+    right = &right_small;
+    frame.camera.width = width / k;
+    frame.camera.height = height / k;
+    frame.camera.fx /= k;
+    frame.camera.fy /= k;
+    frame.camera.cx = (frame.camera.cx - (k - 1) / 2.0) / k;
+    frame.camera.cy = (frame.camera.cy - (k - 1) / 2.0) / k;
+    frame.left_rectified = left_small;
   }
   if (frame.left_rectified.pixels.empty()) frame.left_rectified = pair.left;
   const double t1 = now();

@@ -43,6 +43,10 @@ struct StereoDepthOptions {
   double rectify_alpha = -1;  ///< cv::stereoRectify free scaling in [-1, 1]; -1: OpenCV's default
   RectifiedCameraOptions rectified;
   int64_t max_time_difference_us = 0;  ///< tolerated left/right/pair timestamp difference [µs]
+  /// Match at 1/downscale of the resolution (1 or 2): the rectified pair is averaged down by this
+  /// factor, and the disparity, the depth and their intrinsics are at that size. The matcher's
+  /// num_disparities counts pixels of the matched images. The image sides must be multiples.
+  int downscale = 1;
   StereoMatcherOptions matcher;
   OutlierFilterOptions outliers;
 
@@ -56,7 +60,7 @@ struct StereoFrame {
   /// Rectified left optical frame to the original left optical frame: the calibration's
   /// (Rectifier::rectifiedInLeft), also for pairs that arrive rectified; identity without one.
   Eigen::Quaterniond rectified_in_left = Eigen::Quaterniond::Identity();
-  GrayImage left_rectified;      ///< what was matched
+  GrayImage left_rectified;      ///< what was matched (at 1/downscale of the pair's size)
   std::vector<float> disparity;  ///< left pixels [pixels]; 0 where invalid
   bool has_depth = false;        ///< false for rectified input without focal length or baseline
   std::vector<float> depth;      ///< [m]; 0 where invalid or out of range; empty without depth
