@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <future>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -222,8 +223,12 @@ Pose StereoRenderer::rightInBody() const {
 
 void StereoRenderer::render(const Pose& world_T_body, std::vector<uint8_t>& left,
                             std::vector<uint8_t>& right) const {
+  // The cameras share nothing but read-only state: the right one renders on a second thread, and
+  // each image is the same as rendered alone (pixels depend on their own ray only).
+  std::future<void> right_done =
+      std::async(std::launch::async, [&] { renderCamera(world_T_body * rightInBody(), right); });
   renderCamera(world_T_body * left_in_body_, left);
-  renderCamera(world_T_body * rightInBody(), right);
+  right_done.get();
 }
 
 void StereoRenderer::renderCamera(const Pose& world_T_camera, std::vector<uint8_t>& image) const {

@@ -662,6 +662,20 @@ TEST(StereoRenderer, BothCamerasSeeTheSameTextureAtTheSamePoint) {
   EXPECT_LT(mean_error, 0.2 * mean_shifted_error);
 }
 
+// The two cameras render side by side on two threads: the right image is the one the left camera
+// renders from the right camera's pose, pixel for pixel.
+TEST(StereoRenderer, TheRightImageIsTheLeftCamerasFromTheRightPose) {
+  const StereoRenderer renderer(stereoForest(), StereoCameraOptions{});
+  for (const Pose& body : {bodyPose({3, 15, 1.5}, 0.05), bodyPose({8, 4, 2.0}, -0.7)}) {
+    std::vector<uint8_t> left, right, moved_left, moved_right;
+    renderer.render(body, left, right);
+    const Pose moved = body * renderer.rightInBody() * renderer.leftInBody().inverse();
+    renderer.render(moved, moved_left, moved_right);
+    EXPECT_TRUE(moved_left == right);
+    EXPECT_FALSE(left == right);
+  }
+}
+
 TEST(StereoRenderer, MostSurfacePixelsAreTextured) {
   const World world = stereoForest();
   const StereoRenderer renderer(world, StereoCameraOptions{});
