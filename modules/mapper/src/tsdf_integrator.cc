@@ -174,22 +174,29 @@ std::vector<float> surfaceCosines(const DepthImage& image, const TsdfIntegratorO
   std::vector<float> cosines(image.depth.size(), 0.0f);
   if (!options.normal_distances && !(options.new_surface_shadow > 0)) return cosines;
   const auto valid = [&](double d) { return d >= image.min_range && d > 0 && d <= range; };
-  const auto point = [&](int u, int v) {
-    return camera.backProject(u, v, image.depth[static_cast<size_t>(v) * width + u]);
-  };
+  // Each valid pixel's point, once: a pixel's tangents read up to four neighbours.
+  std::vector<Eigen::Vector3d> points(image.depth.size());
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const size_t i = static_cast<size_t>(v) * width + u;
+      if (valid(image.depth[i])) points[i] = camera.backProject(u, v, image.depth[i]);
+    }
+  }
   // The neighbour on one axis whose depth is closest to the pixel's, so that a tangent is not
   // taken across an occluding edge when the other side continues the surface.
   const auto tangent = [&](int u, int v, int du, int dv, Eigen::Vector3d& t) {
-    const double d = image.depth[static_cast<size_t>(v) * width + u];
+    const size_t i = static_cast<size_t>(v) * width + u;
+    const double d = image.depth[i];
     double best = kInf;
     for (const int sign : {-1, 1}) {
       const int un = u + sign * du;
       const int vn = v + sign * dv;
       if (un < 0 || un >= width || vn < 0 || vn >= height) continue;
-      const double dn = image.depth[static_cast<size_t>(vn) * width + un];
+      const size_t n = static_cast<size_t>(vn) * width + un;
+      const double dn = image.depth[n];
       if (!valid(dn) || std::abs(dn - d) >= best) continue;
       best = std::abs(dn - d);
-      t = point(un, vn) - point(u, v);
+      t = points[n] - points[i];
     }
     return best < kInf;
   };
