@@ -17,20 +17,22 @@
 
 #include <gtest/gtest.h>
 
+#include "bench_tables.h"
 #include "cli.h"
-#include "csv.h"
 #include "procman_test_support.h"
 
 namespace {
 
 namespace fs = std::filesystem;
+using thicket::bench::testing::readTable;
+using thicket::bench::testing::Table;
+using thicket::bench::testing::withoutTimes;
 using thicket::procman::test_support::ChildProcess;
 using thicket::procman::test_support::DescendantReaper;
 using thicket::procman::test_support::readFile;
 using thicket::procman::test_support::waitUntil;
 using thicket::testing::CliResult;
 using thicket::testing::runCommand;
-using Table = std::vector<std::vector<std::string>>;
 
 // The campaign: 4 trials, 2 per shard.
 const std::string kSelection =
@@ -58,11 +60,8 @@ std::string nodeHardware() {
   std::string hardware;
   for (const char* field :
        {"CPUs", "Boards", "SocketsPerBoard", "CoresPerSocket", "ThreadsPerCore"}) {
-    const std::smatch match = [&] {
-      std::smatch m;
-      std::regex_search(probe.output, m, std::regex(std::string(" ") + field + "=([0-9]+)"));
-      return m;
-    }();
+    std::smatch match;
+    std::regex_search(probe.output, match, std::regex(std::string(" ") + field + "=([0-9]+)"));
     if (!match.empty()) hardware += std::string(" ") + field + "=" + match[1].str();
   }
   return hardware.empty() ? " CPUs=1" : hardware;
@@ -139,25 +138,6 @@ class LocalSlurm {
   std::unique_ptr<ChildProcess> controller_, node_;
 };
 
-Table withoutTimes(const std::string& path) {
-  const auto csv = thicket::bench::readCsv(path);
-  EXPECT_TRUE(csv) << path << ": " << csv.error();
-  if (!csv) return {};
-  std::vector<bool> keep;
-  for (const std::string& column : csv->header) {
-    keep.push_back(column != "wall_time_s" && column.find("_ms_") == std::string::npos);
-  }
-  Table table;
-  for (const auto& row : csv->rows) {
-    std::vector<std::string> cells;
-    for (size_t i = 0; i < row.cells.size() && i < keep.size(); ++i) {
-      if (keep[i]) cells.push_back(row.cells[i]);
-    }
-    table.push_back(cells);
-  }
-  return table;
-}
-
 TEST(SlurmCampaign, AnArrayOfShardsAndItsMergeGiveTheRowsOfOneLocalRun) {
   if (const std::string missing = slurmMissing(); !missing.empty()) GTEST_SKIP() << missing;
   if (::unshare(CLONE_NEWNET) != 0 || runCommand("ip link set lo up").status != 0) {
@@ -204,9 +184,9 @@ TEST(SlurmCampaign, AnArrayOfShardsAndItsMergeGiveTheRowsOfOneLocalRun) {
   const CliResult local =
       runCommand(bench + " experiment " + kSelection + " --jobs 2 --out " + dir + "/local");
   ASSERT_EQ(local.status, 0) << local.output;
-  const Table merged = withoutTimes(out + "/merged/trials.csv");
-  EXPECT_EQ(merged.size(), 4u);
-  EXPECT_EQ(merged, withoutTimes(dir + "/local/trials.csv"));
+  const Table merged = withoutTimes(readTable(out + "/merged/trials.csv"));
+  EXPECT_EQ(merged.size(), 5u);  // the header and 4 trials
+  EXPECT_EQ(merged, withoutTimes(readTable(dir + "/local/trials.csv")));
 
   // A shard whose indices leave a gap is refused: it would not fly the trials of its shard.
   const CliResult gap = runCommand(

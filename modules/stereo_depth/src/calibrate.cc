@@ -4,9 +4,13 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "opencv_view.h"
 
 namespace thicket::stereo_depth {
 
@@ -23,14 +27,6 @@ Corners findBoard(const cv::Mat& gray, const cv::Size& pattern) {
   cv::cornerSubPix(gray, corners, cv::Size(11, 11), cv::Size(-1, -1),
                    cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 30, 0.01));
   return corners;
-}
-
-Eigen::Matrix3d toEigen3(const cv::Mat& m) {
-  Eigen::Matrix3d e;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) e(r, c) = m.at<double>(r, c);
-  }
-  return e;
 }
 
 std::vector<double> toVector(const cv::Mat& m) {
@@ -94,11 +90,8 @@ Expected<StereoCalibrationResult> calibrateStereo(const std::vector<GrayPair>& p
         return unexpected(pair.name + ": the " + side + " image's pixels do not fill it");
       }
     }
-    // OpenCV only reads these pixels.
-    const cv::Mat left(size, CV_8UC1, const_cast<uint8_t*>(pair.left.pixels.data()));
-    const cv::Mat right(size, CV_8UC1, const_cast<uint8_t*>(pair.right.pixels.data()));
-    Corners l = findBoard(left, pattern);
-    Corners r = l.empty() ? Corners{} : findBoard(right, pattern);
+    Corners l = findBoard(asMat(pair.left), pattern);
+    Corners r = l.empty() ? Corners{} : findBoard(asMat(pair.right), pattern);
     if (l.empty() || r.empty()) {
       result.pairs_skipped.push_back(pair.name + ": the board was not found in the " +
                                      (l.empty() ? "left" : "right") + " image");
@@ -139,12 +132,12 @@ Expected<StereoCalibrationResult> calibrateStereo(const std::vector<GrayPair>& p
   c.calibration_id = calibration_id;
   c.width = size.width;
   c.height = size.height;
-  c.camera_matrix_left = toEigen3(k_left);
-  c.camera_matrix_right = toEigen3(k_right);
+  cv::cv2eigen(k_left, c.camera_matrix_left);
+  cv::cv2eigen(k_right, c.camera_matrix_right);
   c.distortion_left = toVector(d_left);
   c.distortion_right = toVector(d_right);
-  c.R = toEigen3(rotation);
-  for (int i = 0; i < 3; ++i) c.T(i) = translation.at<double>(i);
+  cv::cv2eigen(rotation, c.R);
+  cv::cv2eigen(translation, c.T);
   auto valid = c.validated();
   if (!valid) return unexpected("the calibration is not usable: " + valid.error());
   c = *valid;

@@ -7,6 +7,7 @@
 
 #include <Eigen/LU>
 #include <opencv2/core.hpp>
+#include <opencv2/core/eigen.hpp>
 
 namespace thicket::stereo_depth {
 namespace {
@@ -66,9 +67,7 @@ Expected<Eigen::Matrix3d> read3x3(const cv::FileStorage& fs, const std::string& 
                       std::to_string(m->cols) + ", expected 3x3");
   }
   Eigen::Matrix3d out;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) out(r, c) = m->at<double>(r, c);
-  }
+  cv::cv2eigen(*m, out);
   return out;
 }
 

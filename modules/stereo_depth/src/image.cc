@@ -9,6 +9,8 @@
 #include "thicket/common/time.h"
 #include "thicket/stereo_depth/image.h"
 
+#include "opencv_view.h"
+
 namespace thicket::stereo_depth {
 namespace {
 
@@ -44,10 +46,6 @@ GrayImage fromMat(const cv::Mat& gray) {
                 static_cast<size_t>(gray.cols));
   }
   return out;
-}
-
-cv::Mat asMat(const GrayImage& image) {
-  return cv::Mat(image.height, image.width, CV_8UC1, const_cast<uint8_t*>(image.pixels.data()));
 }
 
 Expected<GrayImage> decodeRaw(const image_t& image) {

@@ -7,6 +7,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "opencv_view.h"
+
 namespace thicket::stereo_depth {
 
 struct Rectifier::Maps {
@@ -28,7 +30,7 @@ cv::Mat toCv(const std::vector<double>& v) {
 }
 
 void remapImage(const GrayImage& in, const cv::Mat& map_x, const cv::Mat& map_y, GrayImage& out) {
-  const cv::Mat src(in.height, in.width, CV_8UC1, const_cast<uint8_t*>(in.pixels.data()));
+  const cv::Mat src = asMat(in);
   out.width = map_x.cols;
   out.height = map_x.rows;
   out.pixels.resize(static_cast<size_t>(out.width) * static_cast<size_t>(out.height));

@@ -153,13 +153,13 @@ Expected<StereoFrame> StereoDepth::process(const StereoPair& pair,
   if (const std::string narrow = tooNarrow(width / k, options_.matcher); !narrow.empty()) {
     return unexpected("the pair's " + narrow);
   }
-  GrayImage left_small, right_small;
+  GrayImage right_small;
   if (k > 1) {
     // Output pixel u averages input pixels k u .. k u + k - 1, whose centres average k u +
     // (k - 1) / 2: so x = k u + (k - 1) / 2 in the input maps to u.
-    left_small = downscaleGray(*left, k);
+    frame.left_rectified = downscaleGray(*left, k);
     right_small = downscaleGray(*right, k);
-    left = &left_small;
+    left = &frame.left_rectified;
     right = &right_small;
     frame.camera.width = width / k;
     frame.camera.height = height / k;
@@ -167,7 +167,6 @@ Expected<StereoFrame> StereoDepth::process(const StereoPair& pair,
     frame.camera.fy /= k;
     frame.camera.cx = (frame.camera.cx - (k - 1) / 2.0) / k;
     frame.camera.cy = (frame.camera.cy - (k - 1) / 2.0) / k;
-    frame.left_rectified = left_small;
   }
   if (frame.left_rectified.pixels.empty()) frame.left_rectified = pair.left;
   const double t1 = now();

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <thicket/sim_event_t.hpp>
 
+#include "bench_tables.h"
 #include "cli.h"
 #include "csv.h"
 #include "experiments.h"
@@ -27,8 +28,10 @@ namespace thicket::bench {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::readTable;
+using testing::Table;
+using testing::withoutTimes;
 using thicket::testing::CliResult;
-using Table = std::vector<std::vector<std::string>>;
 
 CliResult bench(const std::string& args) {
   return thicket::testing::runCommand(std::string(THICKET_BENCH) + " " + args);
@@ -48,36 +51,6 @@ std::string readFile(const std::string& path) {
 void writeFile(const std::string& path, const std::string& text) {
   std::ofstream file(path, std::ios::binary);
   file << text;
-}
-
-// The header, then the rows.
-Table readTable(const std::string& path) {
-  const auto csv = readCsv(path);
-  EXPECT_TRUE(csv) << csv.error();
-  if (!csv) return {};
-  Table table = {csv->header};
-  for (const CsvRecord& row : csv->rows) table.push_back(row.cells);
-  return table;
-}
-
-// A table without the columns that measure wall-clock time (wall_time_s and the stage timings):
-// what must not depend on threads, shards or resuming.
-Table withoutTimes(const Table& table) {
-  std::vector<bool> keep;
-  for (const std::string& column : table.at(0)) {
-    keep.push_back(column != "wall_time_s" && column.find("_ms_") == std::string::npos &&
-                   column != "timings");
-  }
-  Table kept;
-  for (const std::vector<std::string>& row : table) {
-    EXPECT_EQ(row.size(), keep.size());
-    std::vector<std::string> cells;
-    for (size_t i = 0; i < row.size() && i < keep.size(); ++i) {
-      if (keep[i]) cells.push_back(row[i]);
-    }
-    kept.push_back(cells);
-  }
-  return kept;
 }
 
 std::vector<TrialSpec> list(std::vector<std::string> args) {

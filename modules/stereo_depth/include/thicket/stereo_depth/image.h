@@ -60,6 +60,7 @@ Expected<GrayImage> readGrayImageFile(const std::string& path);
 /// The image averaged down by `factor` (each output pixel the mean of factor x factor input
 /// pixels); the sides must be multiples of factor (std::invalid_argument otherwise).
 GrayImage downscaleGray(const GrayImage& image, int factor);
+
 /// Writes `image` (PNG, ...: by the extension); empty on success, else why not.
 std::string writeGrayImageFile(const std::string& path, const GrayImage& image);
 
