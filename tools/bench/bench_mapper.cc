@@ -16,21 +16,23 @@ namespace thicket::bench {
 
 namespace {
 
-// Method 0 projective, 1 raycast, 2 projective doing only what Open3D's ScalableTSDFVolume does
-// (bench_mapper_peers.cc): line-of-sight distances, no new-surface detection or shadow reset.
+// Method 0 projective, 1 raycast, 2 projective with Open3D's ScalableTSDFVolume's per-voxel work
+// (bench_mapper_peers.cc: line-of-sight distances, no new-surface detection or shadow reset) but
+// carving free space, 3 that without carving: only the blocks near returns, Open3D's work.
 mapper::TsdfIntegratorOptions tsdfOptions(int64_t method) {
   mapper::TsdfIntegratorOptions options;
   options.method = method == 1 ? mapper::TsdfIntegratorOptions::Method::kRaycast
                                : mapper::TsdfIntegratorOptions::Method::kProjective;
-  if (method == 2) {
+  if (method >= 2) {
     options.normal_distances = false;
     options.new_surfaces_replace = false;
     options.new_surface_shadow = 0;
   }
+  options.carve_free_space = method != 3;
   return options;
 }
 
-// Args: voxel size in mm, method (0 projective, 1 raycast, 2 projective as Open3D's work).
+// Args: voxel size in mm, method (see tsdfOptions).
 void BM_TsdfInsert(benchmark::State& state) {
   const double voxel = state.range(0) * 1e-3;
   const mapper::TsdfIntegrator integrator(tsdfOptions(state.range(1)));
@@ -43,7 +45,7 @@ void BM_TsdfInsert(benchmark::State& state) {
   reportFrameTimes(state, ms, tsdf.memoryBytes());
 }
 BENCHMARK(BM_TsdfInsert)
-    ->ArgsProduct({{200, 100, 50}, {0, 2}})
+    ->ArgsProduct({{200, 100, 50}, {0, 2, 3}})
     ->Args({200, 1})
     ->Iterations(kFlightFrames)
     ->UseManualTime()

@@ -1,6 +1,7 @@
 #include "thicket/mapper/tsdf_integrator.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -141,20 +142,22 @@ void checkDepths(const DepthImage& image) {
 }
 
 // What a pixel of (checked) depth says; scale converts its depth to the method's distance (the
-// ray caster's range along the pixel's ray; 1 for the optical z).
+// ray caster's range along the pixel's ray; 1 for the optical z). Without carving, a pixel that
+// sees nothing within range says nothing.
 inline PixelMeasurement measurePixel(double depth, double scale, const DepthImage& image,
-                                     double range) {
+                                     double range, bool carve = true) {
   if (depth > 0 && depth < image.min_range) return {};
   const bool returned = depth > 0 && depth <= image.max_range;
   const double distance = returned ? depth * scale : kInf;
   if (distance <= range) return {distance, kInf, measurementWeight(depth)};
+  if (!carve) return {};
   return {distance, range, measurementWeight(range)};
 }
 
 // Per pixel, the cosine of the angle between its ray and the surface normal estimated from the
 // neighbouring depths, at least kMinSurfaceCosine; 0 where no normal can be estimated (no valid
-// neighbour on an axis). Computed when normal distances or new-surface shadows need it; else 0
-// everywhere. With normal_distances it is how much of a distance measured along the line of sight
+// neighbour on an axis). Computed when normal distances or new-surface shadows need it; else
+// empty. With normal_distances it is how much of a distance measured along the line of sight
 // lies along the normal (alongNormal): a TSDF of raw line-of-sight distances overstates the
 // distance to a surface seen at a slant by 1 / cosine, which on a cylinder's flank promised the
 // planner 0.1-0.3 m of clearance that was not there.
@@ -171,8 +174,8 @@ std::vector<float> surfaceCosines(const DepthImage& image, const TsdfIntegratorO
   const int width = camera.width;
   const int height = camera.height;
   const double range = options.max_integration_range;
+  if (!options.normal_distances && !(options.new_surface_shadow > 0)) return {};
   std::vector<float> cosines(image.depth.size(), 0.0f);
-  if (!options.normal_distances && !(options.new_surface_shadow > 0)) return cosines;
   const auto valid = [&](double d) { return d >= image.min_range && d > 0 && d <= range; };
   // Each valid pixel's point, once: a pixel's tangents read up to four neighbours.
   std::vector<Eigen::Vector3d> points(image.depth.size());
@@ -304,21 +307,35 @@ std::vector<PixelMeasurement> measurePixelsAlongRays(const DepthImage& image,
   return pixels;
 }
 
-// The indices i in [0, 16) with a + b i >= 0 (strict: > 0), as [lo, hi]; one index of slack on
-// each side against rounding, the exact test being made per voxel anyway.
-inline void clipRow(double a, double b, bool strict, int& lo, int& hi) {
-  if (b == 0) {
-    if (strict ? !(a > 0) : !(a >= 0)) hi = -1;  // NaN excludes the row too
-    return;
+// Clips a row of a block's voxels, i in [0, 16), to those with a + b i >= 0 (strict: > 0), for
+// the row's a and a slope b fixed for the frame, with one index of slack on each side against
+// rounding, the exact test being made per voxel anyway.
+class RowClip {
+ public:
+  RowClip(double b, bool strict) : b_(b), inverse_b_(1 / b), strict_(strict) {}
+
+  void operator()(double a, int& lo, int& hi) const {
+    if (b_ == 0) {
+      if (strict_ ? !(a > 0) : !(a >= 0)) hi = -1;  // NaN excludes the row too
+      return;
+    }
+    const double root = -a * inverse_b_;  // a + b i = 0
+    if (!std::isfinite(root)) return;
+    // floor and ceil of the root clamped to [-1, 16], without a library call.
+    const double clamped = std::clamp(root, -1.0, 16.0);
+    const int truncated = static_cast<int>(clamped);
+    if (b_ > 0) {
+      lo = std::max(lo, truncated - (truncated > clamped) - 1);
+    } else {
+      hi = std::min(hi, truncated + (truncated < clamped) + 1);
+    }
   }
-  const double root = -a / b;  // a + b i = 0
-  if (!std::isfinite(root)) return;
-  if (b > 0) {
-    lo = std::max(lo, static_cast<int>(std::clamp(std::floor(root), -1.0, 16.0)) - 1);
-  } else {
-    hi = std::min(hi, static_cast<int>(std::clamp(std::ceil(root), -1.0, 16.0)) + 1);
-  }
-}
+
+ private:
+  double b_;
+  double inverse_b_;
+  bool strict_;
+};
 
 // Blocks whose voxel centres may lie in the frustum up to max_depth, in indexLess order.
 std::vector<BlockIndex> frustumBlocks(const PinholeCamera& camera, const Pose& world_T_camera,
@@ -355,6 +372,145 @@ std::vector<BlockIndex> frustumBlocks(const PinholeCamera& camera, const Pose& w
   return blocks;
 }
 
+// Without carving, the blocks the frame may update: those within a voxel of the stretch of some
+// pixel's line of sight from the truncation in front of its return (along the normal: up to
+// 1 / kMinSurfaceCosine times that in optical z) to the truncation behind it
+// (and down to the new-surface shadow's end where the frame sees a new surface), in indexLess
+// order. The image is cut into tiles of kTile x kTile pixels, each with its nearest and farthest
+// return in range; a rectangle of tiles is covered by the box around its frustum section between
+// the nearest and the farthest end of its stretches, and one whose returns spread deeper than
+// max_spread is split into quarters, down to single tiles, so that boxes stay tight at edges.
+class SurfaceBlocks {
+ public:
+  static constexpr int kTile = 4;
+
+  SurfaceBlocks(const DepthImage& image, const Pose& world_T_camera,
+                const TsdfIntegratorOptions& options, const VoxelUpdater& updater,
+                const NewSurfaces& shadow, const TsdfLayer& layer)
+      : world_T_camera_(world_T_camera),
+        layer_(layer),
+        // Normal distances shrink the free side's by the cosine, at least kMinSurfaceCosine.
+        front_(updater.truncation() / (options.normal_distances ? kMinSurfaceCosine : 1.0)),
+        behind_(updater.truncation() + (shadow.pixels.empty() ? 0.0 : updater.newSurfaceShadow())),
+        max_spread_(kMaxSpreadVoxels * layer.voxelSize()),
+        tiles_x_((image.camera.width + kTile - 1) / kTile),
+        tiles_y_((image.camera.height + kTile - 1) / kTile) {
+    const PinholeCamera& camera = image.camera;
+    // The returns in range are the depths in [lowest, highest], compared as floats: the same
+    // pixels as measurePixel's double comparisons.
+    float lowest = static_cast<float>(image.min_range);
+    if (lowest < image.min_range) lowest = std::nextafter(lowest, kInf);
+    lowest = std::max(lowest, std::numeric_limits<float>::denorm_min());  // depth 0: no return
+    const double max_depth = std::min(image.max_range, options.max_integration_range);
+    float highest = static_cast<float>(max_depth);
+    if (highest > max_depth) highest = std::nextafter(highest, -kInf);
+    nearest_.assign(static_cast<size_t>(tiles_x_) * tiles_y_,
+                    std::numeric_limits<float>::infinity());
+    farthest_.assign(nearest_.size(), -std::numeric_limits<float>::infinity());
+    for (int v = 0; v < camera.height; ++v) {
+      const float* depths = image.depth.data() + static_cast<size_t>(v) * camera.width;
+      float* nearest = nearest_.data() + static_cast<size_t>(v / kTile) * tiles_x_;
+      float* farthest = farthest_.data() + static_cast<size_t>(v / kTile) * tiles_x_;
+      for (int u = 0; u < camera.width; ++u) {
+        const float depth = depths[u];
+        const bool valid = (depth >= lowest) & (depth <= highest);
+        float& near = nearest[u / kTile];
+        float& far = farthest[u / kTile];
+        near = std::min(near, valid ? depth : near);
+        far = std::max(far, valid ? depth : far);
+      }
+    }
+    // The rays through the tiles' corners (pixel edges), in the world frame.
+    rays_.resize(static_cast<size_t>(tiles_x_ + 1) * (tiles_y_ + 1));
+    for (int ty = 0; ty <= tiles_y_; ++ty) {
+      for (int tx = 0; tx <= tiles_x_; ++tx) {
+        rays_[static_cast<size_t>(ty) * (tiles_x_ + 1) + tx] =
+            world_T_camera.orientation *
+            camera.backProject(std::min(tx * kTile, camera.width) - 0.5,
+                               std::min(ty * kTile, camera.height) - 0.5, 1.0);
+      }
+    }
+  }
+
+  std::vector<BlockIndex> operator()() {
+    constexpr int kStart = 4;  // tiles per side of the first rectangles
+    for (int ty = 0; ty < tiles_y_; ty += kStart) {
+      for (int tx = 0; tx < tiles_x_; tx += kStart) {
+        cover(tx, ty, std::min(tx + kStart, tiles_x_) - 1, std::min(ty + kStart, tiles_y_) - 1);
+      }
+    }
+    std::sort(blocks_.begin(), blocks_.end(), indexLess);
+    blocks_.erase(std::unique(blocks_.begin(), blocks_.end()), blocks_.end());
+    return std::move(blocks_);
+  }
+
+ private:
+  // Returns spreading deeper than this many voxels split a rectangle.
+  static constexpr double kMaxSpreadVoxels = 8;
+
+  // Tiles tx0..tx1 x ty0..ty1, inclusive.
+  void cover(int tx0, int ty0, int tx1, int ty1) {
+    float nearest = std::numeric_limits<float>::infinity();
+    float farthest = -nearest;
+    for (int ty = ty0; ty <= ty1; ++ty) {
+      for (int tx = tx0; tx <= tx1; ++tx) {
+        const size_t t = static_cast<size_t>(ty) * tiles_x_ + tx;
+        nearest = std::min(nearest, nearest_[t]);
+        farthest = std::max(farthest, farthest_[t]);
+      }
+    }
+    if (!(nearest <= farthest)) return;  // no return in range
+    if (farthest - nearest > max_spread_ && (tx0 < tx1 || ty0 < ty1)) {
+      const int xm = (tx0 + tx1) / 2;
+      const int ym = (ty0 + ty1) / 2;
+      cover(tx0, ty0, xm, ym);
+      if (xm < tx1) cover(xm + 1, ty0, tx1, ym);
+      if (ym < ty1) cover(tx0, ym + 1, xm, ty1);
+      if (xm < tx1 && ym < ty1) cover(xm + 1, ym + 1, tx1, ty1);
+      return;
+    }
+    const double near = std::max(nearest - front_, 0.0);
+    const double far = farthest + behind_;
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf);
+    Eigen::Vector3d hi = -lo;
+    for (const int ty : {ty0, ty1 + 1}) {
+      for (const int tx : {tx0, tx1 + 1}) {
+        const Eigen::Vector3d& ray = rays_[static_cast<size_t>(ty) * (tiles_x_ + 1) + tx];
+        for (const double z : {near, far}) {
+          const Eigen::Vector3d p = world_T_camera_.position + z * ray;
+          lo = lo.cwiseMin(p);
+          hi = hi.cwiseMax(p);
+        }
+      }
+    }
+    const double margin = layer_.voxelSize();
+    const BlockIndex first = layer_.blockIndex((lo.array() - margin).matrix());
+    const BlockIndex last = layer_.blockIndex((hi.array() + margin).matrix());
+    if (first == last_first_ && last == last_last_) return;  // as the rectangle before
+    last_first_ = first;
+    last_last_ = last;
+    for (int z = first.z(); z <= last.z(); ++z) {
+      for (int y = first.y(); y <= last.y(); ++y) {
+        for (int x = first.x(); x <= last.x(); ++x) blocks_.emplace_back(x, y, z);
+      }
+    }
+  }
+
+  const Pose& world_T_camera_;
+  const TsdfLayer& layer_;
+  double front_;       // how far in front of a return the frame updates [m]
+  double behind_;      // how far behind a return the frame may update [m]
+  double max_spread_;  // [m] of optical z
+  int tiles_x_;
+  int tiles_y_;
+  std::vector<float> nearest_;  // per tile: the nearest return in range; +inf: none
+  std::vector<float> farthest_;
+  std::vector<Eigen::Vector3d> rays_;  // (tiles_x_ + 1) x (tiles_y_ + 1)
+  std::vector<BlockIndex> blocks_;
+  BlockIndex last_first_ = BlockIndex::Constant(std::numeric_limits<int>::min());
+  BlockIndex last_last_ = last_first_;
+};
+
 TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& world_T_camera,
                                           const TsdfIntegratorOptions& options,
                                           const VoxelUpdater& updater, TsdfLayer& layer) {
@@ -369,6 +525,8 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
       std::max(options.max_integration_range,
                shadow.pixels.empty() ? 0.0 : shadow.max_depth + updater.newSurfaceShadow()) +
       updater.truncation();
+  const double deepest =
+      updater.truncation() + (shadow.pixels.empty() ? 0.0 : updater.newSurfaceShadow());
   const Eigen::Matrix3d camera_R_world = camera_T_world.orientation.toRotationMatrix();
   const Eigen::Matrix3d steps = camera_R_world * layer.voxelSize();  // column a: one voxel along a
   const Eigen::Vector3d step = steps.col(0);
@@ -378,12 +536,25 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
   // 0 < z <= max_depth, are linear in a row's voxel index i.
   const double column_offset = camera.cx + 0.5;
   const double row_offset = camera.cy + 0.5;
+  const double width = camera.width;
+  const double height = camera.height;
+  const RowClip clip_near(step.z(), true);
+  const RowClip clip_far(-step.z(), false);
+  const RowClip clip_left(camera.fx * step.x() + column_offset * step.z(), false);
+  const RowClip clip_right(-(camera.fx * step.x() + (column_offset - camera.width) * step.z()),
+                           true);
+  const RowClip clip_top(camera.fy * step.y() + row_offset * step.z(), false);
+  const RowClip clip_bottom(-(camera.fy * step.y() + (row_offset - camera.height) * step.z()),
+                            true);
 
   TsdfIntegrationResult result;
   // New blocks are filled here first and allocated only if some voxel was updated.
   std::vector<TsdfVoxel> scratch(kVoxelsPerBlock);
-  for (const BlockIndex& b :
-       frustumBlocks(camera, world_T_camera, camera_T_world, layer, max_depth)) {
+  const std::vector<BlockIndex> blocks =
+      options.carve_free_space
+          ? frustumBlocks(camera, world_T_camera, camera_T_world, layer, max_depth)
+          : SurfaceBlocks(image, world_T_camera, options, updater, shadow, layer)();
+  for (const BlockIndex& b : blocks) {
     TsdfLayer::BlockType* block = layer.block(b);
     TsdfVoxel* voxels = block ? block->voxels.data() : scratch.data();
     const Eigen::Vector3d first = camera_T_world.transform(layer.voxelCenter(voxelOfBlock(b, 0)));
@@ -395,36 +566,48 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
         const Eigen::Vector3d line = slice + j * steps.col(1);
         int lo = 0;
         int hi = kVoxelsPerSide - 1;
-        clipRow(line.z(), step.z(), true, lo, hi);
-        clipRow(max_depth - line.z(), -step.z(), false, lo, hi);
-        clipRow(camera.fx * line.x() + column_offset * line.z(),
-                camera.fx * step.x() + column_offset * step.z(), false, lo, hi);
-        clipRow(-(camera.fx * line.x() + (column_offset - camera.width) * line.z()),
-                -(camera.fx * step.x() + (column_offset - camera.width) * step.z()), true, lo, hi);
-        clipRow(camera.fy * line.y() + row_offset * line.z(),
-                camera.fy * step.y() + row_offset * step.z(), false, lo, hi);
-        clipRow(-(camera.fy * line.y() + (row_offset - camera.height) * line.z()),
-                -(camera.fy * step.y() + (row_offset - camera.height) * step.z()), true, lo, hi);
+        clip_near(line.z(), lo, hi);
+        clip_far(max_depth - line.z(), lo, hi);
+        clip_left(camera.fx * line.x() + column_offset * line.z(), lo, hi);
+        clip_right(-(camera.fx * line.x() + (column_offset - camera.width) * line.z()), lo, hi);
+        clip_top(camera.fy * line.y() + row_offset * line.z(), lo, hi);
+        clip_bottom(-(camera.fy * line.y() + (row_offset - camera.height) * line.z()), lo, hi);
         lo = std::max(lo, 0);
         hi = std::min(hi, kVoxelsPerSide - 1);
         TsdfVoxel* row_voxels = voxels + kVoxelsPerSide * (j + kVoxelsPerSide * k);
+        // First each voxel's pixel row and column (row -1: none) in a branch-free pass the
+        // compiler vectorizes, then the updates.
+        if (lo > hi) continue;
+        std::array<int, kVoxelsPerSide> rows;
+        std::array<int, kVoxelsPerSide> columns;
+        for (int i = 0; i < kVoxelsPerSide; ++i) {
+          const double x = line.x() + i * step.x();
+          const double y = line.y() + i * step.y();
+          const double z = line.z() + i * step.z();
+          const double inverse_z = 1.0 / z;
+          const double column = camera.fx * x * inverse_z + column_offset;
+          const double row = camera.fy * y * inverse_z + row_offset;
+          const bool seen = (z > 0) & (z <= max_depth) & (column >= 0) & (column < width) &
+                            (row >= 0) & (row < height);
+          rows[i] = static_cast<int>(seen ? row : -1.0);
+          columns[i] = static_cast<int>(seen ? column : 0.0);
+        }
         for (int i = lo; i <= hi; ++i) {
+          if (rows[i] < 0) continue;
+          const size_t pixel = static_cast<size_t>(rows[i]) * camera.width + columns[i];
           const Eigen::Vector3d p = line + i * step;
           const double z = p.z();
-          if (!(z > 0 && z <= max_depth)) continue;
-          const double inverse_z = 1.0 / z;
-          const double column = camera.fx * p.x() * inverse_z + column_offset;
-          const double row = camera.fy * p.y() * inverse_z + row_offset;
-          if (!(column >= 0 && column < camera.width && row >= 0 && row < camera.height)) continue;
-          const size_t pixel =
-              static_cast<size_t>(row) * camera.width + static_cast<size_t>(column);
-          const PixelMeasurement m =
-              measurePixel(image.depth[pixel], 1.0, image, options.max_integration_range);
+          // Deeper behind its pixel's return than any update or shadow reaches (most voxels of
+          // a block behind a surface): nothing to do.
+          const double depth = image.depth[pixel];
+          if (depth > 0 && depth <= image.max_range && depth - z <= -deepest) continue;
+          const PixelMeasurement m = measurePixel(depth, 1.0, image, options.max_integration_range,
+                                                  options.carve_free_space);
           if (m.weight == 0 || z > m.max_voxel) continue;
           // The optical-z difference as a distance along the line of sight (|p| / z), then
           // along the surface normal.
           const double to_surface =
-              options.normal_distances ? p.norm() * inverse_z * alongNormal(cosines[pixel]) : 1.0;
+              options.normal_distances ? p.norm() * (1.0 / z) * alongNormal(cosines[pixel]) : 1.0;
           const double sdf = towardSurface(m.distance - z, to_surface);
           // The stale free space behind a new surface goes first, so that what the frame
           // measures there is all the voxel holds.
@@ -569,6 +752,9 @@ void TsdfIntegratorOptions::declare(Params& p) {
     "no surface is integrated and no space cleared beyond this [m]", Range::positive());
   p("max_weight", max_weight, "voxel weights saturate here, so the map can still change",
     Range::positive());
+  p("carve_free_space", carve_free_space,
+    "update every voxel the camera sees up to the integration range, pixels without a return "
+    "clearing their line of sight; off: only blocks near returns (projective method only)");
   p("normal_distances", normal_distances,
     "store distances along the surface normal, not the line of sight");
   p("new_surfaces_replace", new_surfaces_replace,
@@ -586,6 +772,10 @@ TsdfIntegrator::TsdfIntegrator(TsdfIntegratorOptions options) : options_(options
   }
   if (const std::string error = paramsError(options_); !error.empty()) {
     throw std::invalid_argument("TsdfIntegrator: " + error);
+  }
+  if (!options_.carve_free_space && options_.method == Method::kRaycast) {
+    throw std::invalid_argument(
+        "TsdfIntegrator: carve_free_space false needs the projective method");
   }
 }
 

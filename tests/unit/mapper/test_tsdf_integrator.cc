@@ -470,6 +470,57 @@ TEST(TsdfIntegrator, ProjectiveUpdatesEveryVoxelInTheFrustum) {
   }
 }
 
+// Without carving, the integrator visits only the blocks near returns: from an empty map, every
+// voxel it observes holds what the carving integrator gives it, and every voxel the carving one
+// puts within the truncation of a return in range is among them (the block cover misses none);
+// pixels without a return change nothing.
+TEST(TsdfIntegrator, WithoutCarvingOnlyTheVoxelsNearReturnsChange) {
+  TsdfIntegratorOptions options;
+  const TsdfIntegrator carving(options);
+  options.carve_free_space = false;
+  const TsdfIntegrator surfaces(options);
+  const double range = options.max_integration_range;
+  for (const double vs : {0.2, 0.1, 0.05}) {
+    const double truncation = options.truncation_voxels * vs;
+    for (const Frame& frame : forestFrames(4)) {
+      TsdfLayer all(vs), near(vs);
+      carving.integrate(frame.image, frame.world_T_camera, all);
+      const TsdfIntegrationResult result =
+          surfaces.integrate(frame.image, frame.world_T_camera, near);
+      const Pose camera_T_world = frame.world_T_camera.inverse();
+      int64_t observed_all = 0, in_band = 0, observed_near = 0, differ = 0, missed = 0;
+      forEachObserved(all, [&](const Eigen::Vector3d& c, const TsdfVoxel& v) {
+        ++observed_all;
+        const TsdfVoxel* other = near.voxel(near.voxelIndex(c));
+        const bool seen = other != nullptr && other->weight > 0;
+        if (seen && (other->distance != v.distance || other->weight != v.weight)) ++differ;
+        if (std::abs(v.distance) < truncation &&
+            camera_T_world.transform(c).z() <= range - truncation) {
+          ++in_band;
+          missed += !seen;
+        }
+      });
+      forEachObserved(near, [&](const Eigen::Vector3d&, const TsdfVoxel&) { ++observed_near; });
+      EXPECT_GT(in_band, 1000) << vs;
+      EXPECT_EQ(missed, 0) << vs;
+      EXPECT_EQ(differ, 0) << vs;
+      EXPECT_GE(observed_near, in_band) << vs;
+      EXPECT_LT(observed_near, observed_all / 2) << vs;
+      EXPECT_EQ(result.voxels_updated, observed_near) << vs;
+    }
+  }
+  // Nothing seen: nothing changes.
+  TsdfLayer layer(0.1);
+  const Frame empty = emptyFrame(Pose{});
+  const TsdfIntegrationResult result = surfaces.integrate(empty.image, empty.world_T_camera, layer);
+  EXPECT_EQ(result.voxels_updated, 0);
+  EXPECT_TRUE(result.changed_blocks.empty());
+  EXPECT_EQ(layer.numBlocks(), 0u);
+  // The ray caster has no such mode.
+  options.method = Method::kRaycast;
+  EXPECT_THROW(TsdfIntegrator{options}, std::invalid_argument);
+}
+
 // Depths below the image's min_range are not measurements: they neither mark surfaces nor clear.
 TEST_P(TsdfIntegratorTest, IgnoresReturnsBelowMinRange) {
   Frame frame = emptyFrame(Pose{});

@@ -47,6 +47,13 @@ struct TsdfIntegratorOptions {
   double max_integration_range = 5.0;
   /// Weights saturate here, so that the map can still change.
   double max_weight = 1e4;
+  /// Update every voxel the camera sees up to max_integration_range, pixels without a return
+  /// within it clearing their line of sight (as above). Off, only the blocks with a voxel within a
+  /// voxel of the updated stretch of a return's line of sight are visited (every voxel of such a
+  /// block is updated from its pixel, free ones too), and pixels without a return within range say
+  /// nothing: the work of Open3D's ScalableTSDFVolume, for surface reconstruction. The planner
+  /// needs the observed free space, so the vehicle keeps this on. Projective method only.
+  bool carve_free_space = true;
   /// In front of a surface, store the distance along the surface normal (estimated per pixel
   /// from the neighbouring depths; cosine to the line of sight at least 0.3) rather than along
   /// the line of sight, which overstates it by 1 / cosine where the surface is seen at a slant
