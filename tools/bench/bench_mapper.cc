@@ -70,6 +70,9 @@ void esdfFlight(benchmark::State& state, double voxel, size_t stride) {
       },
       stride);
   reportFrameTimes(state, ms, tsdf.memoryBytes() + esdf.memoryBytes());
+  // The ESDF layer, and the integrator's wavefront state beside it (docs: at most twice it).
+  state.counters["esdf_MiB"] = static_cast<double>(esdf.memoryBytes()) / (1 << 20);
+  state.counters["state_MiB"] = static_cast<double>(esdf_integrator.memoryBytes()) / (1 << 20);
 }
 
 // Arg: voxel size in mm. A frame per mapping cycle at v_max (docs/design.md §1: 4 Hz, 1 m/s).

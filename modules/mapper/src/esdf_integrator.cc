@@ -187,6 +187,8 @@ inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
 }
 
 constexpr int kLast = kVoxelsPerSide - 1;
+// A block's array stride along x, y and z.
+constexpr int kFaceStride[3] = {1, kVoxelsPerSide, kVoxelsPerSide* kVoxelsPerSide};
 constexpr float kNoSite = std::numeric_limits<float>::infinity();
 
 // A TSDF block and its six face neighbours (nullptr where not allocated): enough to look up a
@@ -308,6 +310,17 @@ class EsdfIntegrator::Impl {
     return finish(esdf);
   }
 
+  size_t memoryBytes() const {
+    // A node per allocated block (with its hash-map entry), and the lists' capacities.
+    const size_t nodes =
+        nodes_.size() * (sizeof(BlockNode) + sizeof(BlockIndex) + 2 * sizeof(void*)) +
+        nodes_.bucket_count() * sizeof(void*);
+    return nodes + by_id_.capacity() * sizeof(BlockNode*) +
+           free_ids_.capacity() * sizeof(uint32_t) + touched_.capacity() * sizeof(Touched) +
+           (raise_.capacity() + seeds_.capacity() + tentative_.capacity()) * sizeof(VoxelRef) +
+           queue_.memoryBytes() + changed_nodes_.capacity() * sizeof(BlockNode*);
+  }
+
   EsdfUpdateResult recompute(const TsdfLayer& tsdf, const Eigen::Vector3d& position,
                              EsdfLayer& esdf) {
     checkInputs(tsdf, position, esdf);
@@ -371,14 +384,25 @@ class EsdfIntegrator::Impl {
     checkPosition(position, "current position");
   }
 
+  // A work list whose last call used under a quarter of it, and that holds more than 1 MiB, is
+  // freed (the next call grows it again): a large call, such as the first with its whole occupied
+  // sphere, does not keep its peak for the rest of the flight.
+  template <class T>
+  static void clearList(std::vector<T>& list) {
+    if (list.capacity() * sizeof(T) > (size_t{1} << 20) && list.size() * 4 < list.capacity()) {
+      std::vector<T>().swap(list);
+    }
+    list.clear();
+  }
+
   void beginCall() {
     ++call_;
-    touched_.clear();
-    raise_.clear();
-    seeds_.clear();
-    tentative_.clear();
+    clearList(touched_);
+    clearList(raise_);
+    clearList(seeds_);
+    clearList(tentative_);
     queue_.clear();
-    changed_nodes_.clear();
+    clearList(changed_nodes_);
   }
 
   BlockNode* find(const BlockIndex& b) const {
@@ -478,17 +502,24 @@ class EsdfIntegrator::Impl {
   // with no site between them, so the free side's distances came from sites far away.
   Classified classify(const TsdfStar& star, int x, int y, int z, int global_x, const Span& clear,
                       const Span& occupied) const {
-    const TsdfVoxel* t = star.voxel(x, y, z);
+    const TsdfVoxel* t = star.centre() != nullptr
+                             ? &star.centre()->voxels[x + kVoxelsPerSide * (y + kVoxelsPerSide * z)]
+                             : nullptr;
     if (observed(t)) {
       const float d = t->distance;
       const float magnitude = std::abs(d);
       float site = magnitude <= band_ ? magnitude : kNoSite;
       if (options_.crossing_sites && magnitude > 0) {
+        // Off the block's faces the neighbours are in the same block.
+        const bool interior = static_cast<unsigned>(x - 1) < 14u &&
+                              static_cast<unsigned>(y - 1) < 14u &&
+                              static_cast<unsigned>(z - 1) < 14u;
         for (int face = 0; face < 6; ++face) {
           const int step = face % 2 ? 1 : -1;
           const TsdfVoxel* n =
-              star.voxel(x + (face / 2 == 0 ? step : 0), y + (face / 2 == 1 ? step : 0),
-                         z + (face / 2 == 2 ? step : 0));
+              interior ? t + step * kFaceStride[face / 2]
+                       : star.voxel(x + (face / 2 == 0 ? step : 0), y + (face / 2 == 1 ? step : 0),
+                                    z + (face / 2 == 2 ? step : 0));
           if (!observed(n) || !(d > 0 ? n->distance <= 0 : n->distance >= 0)) continue;
           // A signed distance changes by at most the voxel size between neighbours: a larger
           // sum means one side is stretched (a slant) or truncated, and which is unknown, so the
@@ -823,7 +854,6 @@ class EsdfIntegrator::Impl {
     for (BlockNode* node : changed_nodes_) {
       if (node->known == 0) erase(node);
     }
-    touched_.clear();
     std::sort(result.changed_blocks.begin(), result.changed_blocks.end(), indexLess);
     std::sort(result.removed_blocks.begin(), result.removed_blocks.end(), indexLess);
     return result;
@@ -880,6 +910,10 @@ EsdfUpdateResult EsdfIntegrator::update(const TsdfLayer& tsdf,
                                         const std::vector<BlockIndex>& changed_tsdf_blocks,
                                         const Eigen::Vector3d& current_position, EsdfLayer& esdf) {
   return impl_->update(tsdf, changed_tsdf_blocks, current_position, esdf);
+}
+
+size_t EsdfIntegrator::memoryBytes() const {
+  return impl_->memoryBytes();
 }
 
 EsdfUpdateResult EsdfIntegrator::recompute(const TsdfLayer& tsdf,

@@ -20,16 +20,31 @@ class MonotoneQueue {
  public:
   bool empty() const { return size_ == 0; }
 
+  // The buckets' capacity [bytes].
+  size_t memoryBytes() const {
+    size_t bytes = 0;
+    for (const std::vector<uint64_t>& b : buckets_) bytes += b.capacity() * sizeof(uint64_t);
+    return bytes;
+  }
+
+  // Empties the queue; a bucket that holds more than 1 MiB and more than four times the most
+  // entries the queue held since the last clear() is freed.
   void clear() {
-    for (std::vector<uint64_t>& b : buckets_) b.clear();
+    for (std::vector<uint64_t>& b : buckets_) {
+      if (b.capacity() * sizeof(uint64_t) > (size_t{1} << 20) && peak_ * 4 < b.capacity()) {
+        std::vector<uint64_t>().swap(b);
+      }
+      b.clear();
+    }
     nonempty_ = 0;
     size_ = 0;
+    peak_ = 0;
     last_ = 0;
   }
 
   void push(uint32_t key, uint32_t payload) {
     insert(uint64_t{key} << 32 | payload);
-    ++size_;
+    peak_ = std::max(peak_, ++size_);
   }
 
   // The payload of an entry with the smallest key, and that key.
@@ -67,6 +82,7 @@ class MonotoneQueue {
   uint64_t nonempty_ = 0;           // bit b: bucket b holds entries
   uint32_t last_ = 0;
   size_t size_ = 0;
+  size_t peak_ = 0;  // the most entries held since clear()
 };
 
 }  // namespace thicket::mapper

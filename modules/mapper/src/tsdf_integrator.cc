@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <unordered_set>
@@ -14,6 +15,7 @@ namespace {
 using Method = TsdfIntegratorOptions::Method;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kLast = kVoxelsPerSide - 1;
 
 // What one pixel says about the voxels on its line of sight, in the method's distance metric
 // (optical z for the projective method, range along the ray for the ray caster).
@@ -141,6 +143,12 @@ void checkDepths(const DepthImage& image) {
   }
 }
 
+// Whether a pixel's (checked) optical depth is a return within range: one that measurePixel
+// (scale 1) integrates as a surface.
+inline bool returnInRange(double depth, const DepthImage& image, double range) {
+  return depth > 0 && depth >= image.min_range && depth <= image.max_range && depth <= range;
+}
+
 // What a pixel of (checked) depth says; scale converts its depth to the method's distance (the
 // ray caster's range along the pixel's ray; 1 for the optical z). Without carving, a pixel that
 // sees nothing within range says nothing.
@@ -153,6 +161,23 @@ inline PixelMeasurement measurePixel(double depth, double scale, const DepthImag
   if (!carve) return {};
   return {distance, range, measurementWeight(range)};
 }
+
+// PinholeCamera::backProject at a frame's pixels, each column's and row's division done once:
+// (u - cx) / fx * depth as there, bit for bit.
+class PixelRays {
+ public:
+  explicit PixelRays(const PinholeCamera& camera) : xs_(camera.width), ys_(camera.height) {
+    for (int u = 0; u < camera.width; ++u) xs_[u] = (u - camera.cx) / camera.fx;
+    for (int v = 0; v < camera.height; ++v) ys_[v] = (v - camera.cy) / camera.fy;
+  }
+  Eigen::Vector3d at(int u, int v, double depth) const {
+    return {xs_[u] * depth, ys_[v] * depth, depth};
+  }
+
+ private:
+  std::vector<double> xs_;
+  std::vector<double> ys_;
+};
 
 // Per pixel, the cosine of the angle between its ray and the surface normal estimated from the
 // neighbouring depths, at least kMinSurfaceCosine; 0 where no normal can be estimated (no valid
@@ -169,7 +194,8 @@ inline double alongNormal(float cosine) {
   return cosine > 0 ? cosine : 1.0;
 }
 
-std::vector<float> surfaceCosines(const DepthImage& image, const TsdfIntegratorOptions& options) {
+std::vector<float> surfaceCosines(const DepthImage& image, const PixelRays& rays,
+                                  const TsdfIntegratorOptions& options) {
   const PinholeCamera& camera = image.camera;
   const int width = camera.width;
   const int height = camera.height;
@@ -182,7 +208,7 @@ std::vector<float> surfaceCosines(const DepthImage& image, const TsdfIntegratorO
   for (int v = 0; v < height; ++v) {
     for (int u = 0; u < width; ++u) {
       const size_t i = static_cast<size_t>(v) * width + u;
-      if (valid(image.depth[i])) points[i] = camera.backProject(u, v, image.depth[i]);
+      if (valid(image.depth[i])) points[i] = rays.at(u, v, image.depth[i]);
     }
   }
   // The neighbour on one axis whose depth is closest to the pixel's, so that a tangent is not
@@ -212,7 +238,7 @@ std::vector<float> surfaceCosines(const DepthImage& image, const TsdfIntegratorO
       const Eigen::Vector3d normal = along_u.cross(along_v);
       const double norm = normal.norm();
       if (!(norm > 0)) continue;
-      const Eigen::Vector3d ray = camera.backProject(u, v, 1.0).normalized();
+      const Eigen::Vector3d ray = rays.at(u, v, 1.0).normalized();
       cosines[i] =
           static_cast<float>(std::clamp(std::abs(normal.dot(ray)) / norm, kMinSurfaceCosine, 1.0));
     }
@@ -243,8 +269,8 @@ struct NewSurfaces {
   bool at(size_t pixel) const { return !pixels.empty() && pixels[pixel] != 0; }
 };
 
-NewSurfaces newSurfacePixels(const DepthImage& image, const Pose& world_T_camera,
-                             const std::vector<float>& cosines,
+NewSurfaces newSurfacePixels(const DepthImage& image, const PixelRays& rays,
+                             const Pose& world_T_camera, const std::vector<float>& cosines,
                              const TsdfIntegratorOptions& options, const VoxelUpdater& updater,
                              const TsdfLayer& layer) {
   NewSurfaces found;
@@ -268,14 +294,15 @@ NewSurfaces newSurfacePixels(const DepthImage& image, const Pose& world_T_camera
     for (int u = 0; u < camera.width; ++u) {
       const size_t i = static_cast<size_t>(v) * camera.width + u;
       const double depth = image.depth[i];
-      const PixelMeasurement m = measurePixel(depth, 1.0, image, options.max_integration_range);
-      if (m.weight == 0 || !std::isinf(m.max_voxel)) continue;  // not a return within range
+      if (!returnInRange(depth, image, options.max_integration_range)) continue;
       if (cosines[i] < kMinNewSurfaceCosine) continue;
-      const Eigen::Vector3d ray = world_T_camera.orientation * camera.backProject(u, v, 1.0);
+      const Eigen::Vector3d ray = world_T_camera.orientation * rays.at(u, v, 1.0);
       const Eigen::Vector3d hit = world_T_camera.position + depth * ray;
+      // Most returns end in a voxel that is not clearly free: the probes behind it wait.
+      bool stale = clearlyFreeAt(hit);
+      if (!stale) continue;
       const Eigen::Vector3d deeper = step * ray.normalized();
-      bool stale = true;
-      for (int k = 0; k <= kNewSurfaceProbes && stale; ++k) stale = clearlyFreeAt(hit + k * deeper);
+      for (int k = 1; k <= kNewSurfaceProbes && stale; ++k) stale = clearlyFreeAt(hit + k * deeper);
       if (!stale) continue;
       if (flags.empty()) flags.assign(image.depth.size(), 0);
       flags[i] = 1;
@@ -293,14 +320,14 @@ inline double towardSurface(double along, double to_surface) {
 }
 
 // Every pixel's measurement along its ray, for the ray caster.
-std::vector<PixelMeasurement> measurePixelsAlongRays(const DepthImage& image,
+std::vector<PixelMeasurement> measurePixelsAlongRays(const DepthImage& image, const PixelRays& rays,
                                                      const TsdfIntegratorOptions& options) {
   const PinholeCamera& camera = image.camera;
   std::vector<PixelMeasurement> pixels(image.depth.size());
   for (int v = 0; v < camera.height; ++v) {
     for (int u = 0; u < camera.width; ++u) {
       const size_t i = static_cast<size_t>(v) * camera.width + u;
-      pixels[i] = measurePixel(image.depth[i], camera.backProject(u, v, 1.0).norm(), image,
+      pixels[i] = measurePixel(image.depth[i], rays.at(u, v, 1.0).norm(), image,
                                options.max_integration_range);
     }
   }
@@ -372,71 +399,146 @@ std::vector<BlockIndex> frustumBlocks(const PinholeCamera& camera, const Pose& w
   return blocks;
 }
 
-// Without carving, the blocks the frame may update: those within a voxel of the stretch of some
-// pixel's line of sight from the truncation in front of its return (along the normal: up to
-// 1 / kMinSurfaceCosine times that in optical z) to the truncation behind it
-// (and down to the new-surface shadow's end where the frame sees a new surface), in indexLess
-// order. The image is cut into tiles of kTile x kTile pixels, each with its nearest and farthest
-// return in range; a rectangle of tiles is covered by the box around its frustum section between
-// the nearest and the farthest end of its stretches, and one whose returns spread deeper than
-// max_spread is split into quarters, down to single tiles, so that boxes stay tight at edges.
-class SurfaceBlocks {
+// The image cut into tiles of kTile x kTile pixels, each with its nearest and farthest return
+// within range (what measurePixel takes as one).
+class DepthTiles {
  public:
   static constexpr int kTile = 4;
 
-  SurfaceBlocks(const DepthImage& image, const Pose& world_T_camera,
-                const TsdfIntegratorOptions& options, const VoxelUpdater& updater,
-                const NewSurfaces& shadow, const TsdfLayer& layer)
-      : world_T_camera_(world_T_camera),
-        layer_(layer),
-        // Normal distances shrink the free side's by the cosine, at least kMinSurfaceCosine.
-        front_(updater.truncation() / (options.normal_distances ? kMinSurfaceCosine : 1.0)),
-        behind_(updater.truncation() + (shadow.pixels.empty() ? 0.0 : updater.newSurfaceShadow())),
-        max_spread_(kMaxSpreadVoxels * layer.voxelSize()),
-        tiles_x_((image.camera.width + kTile - 1) / kTile),
-        tiles_y_((image.camera.height + kTile - 1) / kTile) {
-    const PinholeCamera& camera = image.camera;
-    // The returns in range are the depths in [lowest, highest], compared as floats: the same
-    // pixels as measurePixel's double comparisons.
+  DepthTiles(const DepthImage& image, double range)
+      : camera_(image.camera),
+        tiles_x_((camera_.width + kTile - 1) / kTile),
+        tiles_y_((camera_.height + kTile - 1) / kTile) {
+    // Returns in range are the depths in [lowest, highest] compared as floats: the same pixels
+    // as measurePixel's double comparisons.
     float lowest = static_cast<float>(image.min_range);
     if (lowest < image.min_range) lowest = std::nextafter(lowest, kInf);
     lowest = std::max(lowest, std::numeric_limits<float>::denorm_min());  // depth 0: no return
-    const double max_depth = std::min(image.max_range, options.max_integration_range);
+    const double max_depth = std::min(image.max_range, range);
     float highest = static_cast<float>(max_depth);
     if (highest > max_depth) highest = std::nextafter(highest, -kInf);
-    nearest_.assign(static_cast<size_t>(tiles_x_) * tiles_y_,
-                    std::numeric_limits<float>::infinity());
-    farthest_.assign(nearest_.size(), -std::numeric_limits<float>::infinity());
-    for (int v = 0; v < camera.height; ++v) {
-      const float* depths = image.depth.data() + static_cast<size_t>(v) * camera.width;
-      float* nearest = nearest_.data() + static_cast<size_t>(v / kTile) * tiles_x_;
-      float* farthest = farthest_.data() + static_cast<size_t>(v / kTile) * tiles_x_;
-      for (int u = 0; u < camera.width; ++u) {
-        const float depth = depths[u];
-        const bool valid = (depth >= lowest) & (depth <= highest);
-        float& near = nearest[u / kTile];
-        float& far = farthest[u / kTile];
-        near = std::min(near, valid ? depth : near);
-        far = std::max(far, valid ? depth : far);
+    const size_t tiles = static_cast<size_t>(tiles_x_) * tiles_y_;
+    nearest_.assign(tiles, std::numeric_limits<float>::infinity());
+    farthest_.assign(tiles, -std::numeric_limits<float>::infinity());
+    constexpr float kInfF = std::numeric_limits<float>::infinity();
+    for (int v = 0; v < camera_.height; ++v) {
+      const float* depths = image.depth.data() + static_cast<size_t>(v) * camera_.width;
+      const size_t row = static_cast<size_t>(v / kTile) * tiles_x_;
+      for (int tx = 0; tx < tiles_x_; ++tx) {
+        float nearest = nearest_[row + tx];
+        float farthest = farthest_[row + tx];
+        for (int u = tx * kTile; u < std::min((tx + 1) * kTile, camera_.width); ++u) {
+          const float depth = depths[u];
+          const bool valid = (depth >= lowest) & (depth <= highest);
+          nearest = std::min(nearest, valid ? depth : kInfF);
+          farthest = std::max(farthest, valid ? depth : -kInfF);
+        }
+        nearest_[row + tx] = nearest;
+        farthest_[row + tx] = farthest;
       }
     }
-    // The rays through the tiles' corners (pixel edges), in the world frame.
-    rays_.resize(static_cast<size_t>(tiles_x_ + 1) * (tiles_y_ + 1));
-    for (int ty = 0; ty <= tiles_y_; ++ty) {
-      for (int tx = 0; tx <= tiles_x_; ++tx) {
-        rays_[static_cast<size_t>(ty) * (tiles_x_ + 1) + tx] =
-            world_T_camera.orientation *
-            camera.backProject(std::min(tx * kTile, camera.width) - 0.5,
-                               std::min(ty * kTile, camera.height) - 0.5, 1.0);
+  }
+
+  int tilesX() const { return tiles_x_; }
+  int tilesY() const { return tiles_y_; }
+
+  // Over tiles tx0..tx1 x ty0..ty1 (inclusive): the nearest and the farthest return in range
+  // (+inf and -inf: none).
+  struct Bounds {
+    float nearest = std::numeric_limits<float>::infinity();
+    float farthest = -std::numeric_limits<float>::infinity();
+  };
+  Bounds bounds(int tx0, int ty0, int tx1, int ty1) const {
+    Bounds b;
+    for (int ty = ty0; ty <= ty1; ++ty) {
+      for (int tx = tx0; tx <= tx1; ++tx) {
+        const size_t t = static_cast<size_t>(ty) * tiles_x_ + tx;
+        b.nearest = std::min(b.nearest, nearest_[t]);
+        b.farthest = std::max(b.farthest, farthest_[t]);
+      }
+    }
+    return b;
+  }
+
+  // The tiles that the voxel centres of a block project into, its corners c[0..7] given in the
+  // camera frame, as bounds(); nullopt when part of the block is not in front of the camera.
+  std::optional<Bounds> blockBounds(const std::array<Eigen::Vector3d, 8>& corners) const {
+    double u_lo = kInf, u_hi = -kInf, v_lo = kInf, v_hi = -kInf;
+    for (const Eigen::Vector3d& c : corners) {
+      if (!(c.z() > 0)) return std::nullopt;
+      const double u = camera_.fx * c.x() / c.z() + camera_.cx + 0.5;
+      const double v = camera_.fy * c.y() / c.z() + camera_.cy + 0.5;
+      u_lo = std::min(u_lo, u);
+      u_hi = std::max(u_hi, u);
+      v_lo = std::min(v_lo, v);
+      v_hi = std::max(v_hi, v);
+    }
+    if (u_hi < -1 || v_hi < -1 || u_lo > camera_.width + 1 || v_lo > camera_.height + 1) {
+      return Bounds{};  // off the image: no pixel at all
+    }
+    // The tile of pixel coordinate c, with a pixel of slack against rounding.
+    const auto tile = [](double c, int pixels) {
+      return static_cast<int>(std::clamp(std::floor(c), 0.0, pixels - 1.0)) / kTile;
+    };
+    const int tx0 = tile(u_lo - 1, camera_.width);
+    const int tx1 = tile(u_hi + 1, camera_.width);
+    const int ty0 = tile(v_lo - 1, camera_.height);
+    const int ty1 = tile(v_hi + 1, camera_.height);
+    return bounds(tx0, ty0, tx1, ty1);
+  }
+
+ private:
+  const PinholeCamera& camera_;
+  int tiles_x_;
+  int tiles_y_;
+  std::vector<float> nearest_;
+  std::vector<float> farthest_;
+};
+
+// Without carving, the blocks the frame may update: those within a voxel of the stretch of some
+// pixel's line of sight from the truncation in front of its return (along the normal: up to
+// 1 / kMinSurfaceCosine times that in optical z) to the truncation behind it (and down to the
+// new-surface shadow's end where the frame sees a new surface), in indexLess order. A rectangle
+// of tiles is covered by the box around its frustum section between the nearest and the farthest
+// end of its stretches; one whose returns spread deeper than kMaxSpreadVoxels is split into
+// quarters, down to single tiles, so that boxes stay tight at edges.
+class SurfaceBlocks {
+ public:
+  SurfaceBlocks(const DepthTiles& tiles, const PinholeCamera& camera, const Pose& world_T_camera,
+                const TsdfIntegratorOptions& options, const VoxelUpdater& updater, double behind,
+                const TsdfLayer& layer)
+      : tiles_(tiles),
+        world_T_camera_(world_T_camera),
+        layer_(layer),
+        // Normal distances shrink the free side's by the cosine, at least kMinSurfaceCosine.
+        front_(updater.truncation() / (options.normal_distances ? kMinSurfaceCosine : 1.0)),
+        behind_(behind),
+        max_spread_(kMaxSpreadVoxels * layer.voxelSize()) {
+    // The rays through the tiles' corners (pixel edges), in the world frame: R (x, y, 1) as
+    // x R0 + (y R1 + R2), the terms per column and per row.
+    constexpr int kTile = DepthTiles::kTile;
+    const Eigen::Matrix3d world_R_camera = world_T_camera.orientation.toRotationMatrix();
+    std::vector<Eigen::Vector3d> along_x(tiles.tilesX() + 1);
+    for (int tx = 0; tx <= tiles.tilesX(); ++tx) {
+      const double x = camera.backProject(std::min(tx * kTile, camera.width) - 0.5, 0, 1).x();
+      along_x[tx] = x * world_R_camera.col(0);
+    }
+    rays_.resize(static_cast<size_t>(tiles.tilesX() + 1) * (tiles.tilesY() + 1));
+    for (int ty = 0; ty <= tiles.tilesY(); ++ty) {
+      const double y = camera.backProject(0, std::min(ty * kTile, camera.height) - 0.5, 1).y();
+      const Eigen::Vector3d along_y = y * world_R_camera.col(1) + world_R_camera.col(2);
+      for (int tx = 0; tx <= tiles.tilesX(); ++tx) {
+        rays_[static_cast<size_t>(ty) * (tiles.tilesX() + 1) + tx] = along_x[tx] + along_y;
       }
     }
   }
 
   std::vector<BlockIndex> operator()() {
     constexpr int kStart = 4;  // tiles per side of the first rectangles
-    for (int ty = 0; ty < tiles_y_; ty += kStart) {
-      for (int tx = 0; tx < tiles_x_; tx += kStart) {
-        cover(tx, ty, std::min(tx + kStart, tiles_x_) - 1, std::min(ty + kStart, tiles_y_) - 1);
+    for (int ty = 0; ty < tiles_.tilesY(); ty += kStart) {
+      for (int tx = 0; tx < tiles_.tilesX(); tx += kStart) {
+        cover(tx, ty, std::min(tx + kStart, tiles_.tilesX()) - 1,
+              std::min(ty + kStart, tiles_.tilesY()) - 1);
       }
     }
     std::sort(blocks_.begin(), blocks_.end(), indexLess);
@@ -450,17 +552,9 @@ class SurfaceBlocks {
 
   // Tiles tx0..tx1 x ty0..ty1, inclusive.
   void cover(int tx0, int ty0, int tx1, int ty1) {
-    float nearest = std::numeric_limits<float>::infinity();
-    float farthest = -nearest;
-    for (int ty = ty0; ty <= ty1; ++ty) {
-      for (int tx = tx0; tx <= tx1; ++tx) {
-        const size_t t = static_cast<size_t>(ty) * tiles_x_ + tx;
-        nearest = std::min(nearest, nearest_[t]);
-        farthest = std::max(farthest, farthest_[t]);
-      }
-    }
-    if (!(nearest <= farthest)) return;  // no return in range
-    if (farthest - nearest > max_spread_ && (tx0 < tx1 || ty0 < ty1)) {
+    const DepthTiles::Bounds b = tiles_.bounds(tx0, ty0, tx1, ty1);
+    if (!(b.nearest <= b.farthest)) return;  // no return in range
+    if (b.farthest - b.nearest > max_spread_ && (tx0 < tx1 || ty0 < ty1)) {
       const int xm = (tx0 + tx1) / 2;
       const int ym = (ty0 + ty1) / 2;
       cover(tx0, ty0, xm, ym);
@@ -469,13 +563,13 @@ class SurfaceBlocks {
       if (xm < tx1 && ym < ty1) cover(xm + 1, ym + 1, tx1, ty1);
       return;
     }
-    const double near = std::max(nearest - front_, 0.0);
-    const double far = farthest + behind_;
+    const double near = std::max(b.nearest - front_, 0.0);
+    const double far = b.farthest + behind_;
     Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf);
     Eigen::Vector3d hi = -lo;
     for (const int ty : {ty0, ty1 + 1}) {
       for (const int tx : {tx0, tx1 + 1}) {
-        const Eigen::Vector3d& ray = rays_[static_cast<size_t>(ty) * (tiles_x_ + 1) + tx];
+        const Eigen::Vector3d& ray = rays_[static_cast<size_t>(ty) * (tiles_.tilesX() + 1) + tx];
         for (const double z : {near, far}) {
           const Eigen::Vector3d p = world_T_camera_.position + z * ray;
           lo = lo.cwiseMin(p);
@@ -496,16 +590,13 @@ class SurfaceBlocks {
     }
   }
 
+  const DepthTiles& tiles_;
   const Pose& world_T_camera_;
   const TsdfLayer& layer_;
-  double front_;       // how far in front of a return the frame updates [m]
-  double behind_;      // how far behind a return the frame may update [m]
-  double max_spread_;  // [m] of optical z
-  int tiles_x_;
-  int tiles_y_;
-  std::vector<float> nearest_;  // per tile: the nearest return in range; +inf: none
-  std::vector<float> farthest_;
-  std::vector<Eigen::Vector3d> rays_;  // (tiles_x_ + 1) x (tiles_y_ + 1)
+  double front_;                       // how far in front of a return the frame updates [m]
+  double behind_;                      // how far behind a return the frame may update [m]
+  double max_spread_;                  // [m] of optical z
+  std::vector<Eigen::Vector3d> rays_;  // (tilesX + 1) x (tilesY + 1)
   std::vector<BlockIndex> blocks_;
   BlockIndex last_first_ = BlockIndex::Constant(std::numeric_limits<int>::min());
   BlockIndex last_last_ = last_first_;
@@ -516,9 +607,10 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
                                           const VoxelUpdater& updater, TsdfLayer& layer) {
   const PinholeCamera& camera = image.camera;
   const Pose camera_T_world = world_T_camera.inverse();
-  const std::vector<float> cosines = surfaceCosines(image, options);
+  const PixelRays rays(image.camera);
+  const std::vector<float> cosines = surfaceCosines(image, rays, options);
   const NewSurfaces shadow =
-      newSurfacePixels(image, world_T_camera, cosines, options, updater, layer);
+      newSurfacePixels(image, rays, world_T_camera, cosines, options, updater, layer);
   // No voxel beyond this is updated: surfaces end at the integration range, plus the truncation
   // behind them; the shadows of new surfaces reach new_surface_shadow deeper.
   const double max_depth =
@@ -550,14 +642,31 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
   TsdfIntegrationResult result;
   // New blocks are filled here first and allocated only if some voxel was updated.
   std::vector<TsdfVoxel> scratch(kVoxelsPerBlock);
+  // Without carving: where the returns are, for the blocks to visit and how deep.
+  std::optional<DepthTiles> tiles;
+  if (!options.carve_free_space) tiles.emplace(image, options.max_integration_range);
   const std::vector<BlockIndex> blocks =
-      options.carve_free_space
-          ? frustumBlocks(camera, world_T_camera, camera_T_world, layer, max_depth)
-          : SurfaceBlocks(image, world_T_camera, options, updater, shadow, layer)();
+      tiles ? SurfaceBlocks(*tiles, camera, world_T_camera, options, updater, deepest, layer)()
+            : frustumBlocks(camera, world_T_camera, camera_T_world, layer, max_depth);
   for (const BlockIndex& b : blocks) {
     TsdfLayer::BlockType* block = layer.block(b);
     TsdfVoxel* voxels = block ? block->voxels.data() : scratch.data();
     const Eigen::Vector3d first = camera_T_world.transform(layer.voxelCenter(voxelOfBlock(b, 0)));
+    // Without carving, voxels deeper than the farthest return their pixels see, by more than any
+    // update or shadow reaches, need no visit.
+    double block_depth = max_depth;
+    if (tiles) {
+      std::array<Eigen::Vector3d, 8> corners;
+      for (int c = 0; c < 8; ++c) {
+        corners[c] = first + kLast * ((c & 1) * steps.col(0) + (c >> 1 & 1) * steps.col(1) +
+                                      (c >> 2) * steps.col(2));
+      }
+      if (const auto seen = tiles->blockBounds(corners)) {
+        // A hair deeper, so that rounding cannot drop a voxel the exact test would keep.
+        block_depth = std::min(block_depth, seen->farthest + deepest + 1e-6 * layer.voxelSize());
+      }
+      if (!(block_depth > 0)) continue;  // no return in view: nothing to update
+    }
     int64_t updated = 0;
     bool changed = false;
     for (int k = 0; k < kVoxelsPerSide; ++k) {
@@ -567,7 +676,7 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
         int lo = 0;
         int hi = kVoxelsPerSide - 1;
         clip_near(line.z(), lo, hi);
-        clip_far(max_depth - line.z(), lo, hi);
+        clip_far(block_depth - line.z(), lo, hi);
         clip_left(camera.fx * line.x() + column_offset * line.z(), lo, hi);
         clip_right(-(camera.fx * line.x() + (column_offset - camera.width) * line.z()), lo, hi);
         clip_top(camera.fy * line.y() + row_offset * line.z(), lo, hi);
@@ -652,10 +761,11 @@ struct AxisWalk {
 TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& world_T_camera,
                                        const TsdfIntegratorOptions& options,
                                        const VoxelUpdater& updater, TsdfLayer& layer) {
-  const std::vector<PixelMeasurement> pixels = measurePixelsAlongRays(image, options);
-  const std::vector<float> cosines = surfaceCosines(image, options);
+  const PixelRays rays(image.camera);
+  const std::vector<PixelMeasurement> pixels = measurePixelsAlongRays(image, rays, options);
+  const std::vector<float> cosines = surfaceCosines(image, rays, options);
   const NewSurfaces shadow =
-      newSurfacePixels(image, world_T_camera, cosines, options, updater, layer);
+      newSurfacePixels(image, rays, world_T_camera, cosines, options, updater, layer);
   const PinholeCamera& camera = image.camera;
   const double voxel_size = layer.voxelSize();
   const Eigen::Vector3d& origin = world_T_camera.position;
@@ -677,8 +787,7 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
     const PixelMeasurement& m = pixels[pixel];
     const int u = static_cast<int>(pixel % camera.width);
     const int v = static_cast<int>(pixel / camera.width);
-    const Eigen::Vector3d dir =
-        world_T_camera.orientation * camera.backProject(u, v, 1.0).normalized();
+    const Eigen::Vector3d dir = world_T_camera.orientation * rays.at(u, v, 1.0).normalized();
     AxisWalk x(origin_voxel.x(), origin_voxels.x(), dir.x(), voxel_size);
     AxisWalk y(origin_voxel.y(), origin_voxels.y(), dir.y(), voxel_size);
     AxisWalk z(origin_voxel.z(), origin_voxels.z(), dir.z(), voxel_size);

@@ -96,6 +96,10 @@ class EsdfIntegrator {
   EsdfUpdateResult update(const TsdfLayer& tsdf, const std::vector<BlockIndex>& changed_tsdf_blocks,
                           const Eigen::Vector3d& current_position, EsdfLayer& esdf);
 
+  /// The integrator's own memory [bytes]: its per-block wavefront state (each voxel's class,
+  /// value and parent, and the block's neighbours) and the capacity of its per-call work lists.
+  size_t memoryBytes() const;
+
   /// From scratch on the whole TSDF: clears esdf and all internal state first. removed_blocks
   /// lists the blocks esdf had before that it no longer has. Throws as update() does.
   EsdfUpdateResult recompute(const TsdfLayer& tsdf, const Eigen::Vector3d& current_position,
