@@ -203,19 +203,10 @@ std::vector<float> surfaceCosines(const DepthImage& image, const PixelRays& rays
   if (!options.normal_distances && !(options.new_surface_shadow > 0)) return {};
   std::vector<float> cosines(image.depth.size(), 0.0f);
   const auto valid = [&](double d) { return d >= image.min_range && d > 0 && d <= range; };
-  // Each valid pixel's point, once: a pixel's tangents read up to four neighbours.
-  std::vector<Eigen::Vector3d> points(image.depth.size());
-  for (int v = 0; v < height; ++v) {
-    for (int u = 0; u < width; ++u) {
-      const size_t i = static_cast<size_t>(v) * width + u;
-      if (valid(image.depth[i])) points[i] = rays.at(u, v, image.depth[i]);
-    }
-  }
   // The neighbour on one axis whose depth is closest to the pixel's, so that a tangent is not
   // taken across an occluding edge when the other side continues the surface.
   const auto tangent = [&](int u, int v, int du, int dv, Eigen::Vector3d& t) {
-    const size_t i = static_cast<size_t>(v) * width + u;
-    const double d = image.depth[i];
+    const double d = image.depth[static_cast<size_t>(v) * width + u];
     double best = kInf;
     for (const int sign : {-1, 1}) {
       const int un = u + sign * du;
@@ -225,7 +216,7 @@ std::vector<float> surfaceCosines(const DepthImage& image, const PixelRays& rays
       const double dn = image.depth[n];
       if (!valid(dn) || std::abs(dn - d) >= best) continue;
       best = std::abs(dn - d);
-      t = points[n] - points[i];
+      t = rays.at(un, vn, dn) - rays.at(u, v, d);
     }
     return best < kInf;
   };
