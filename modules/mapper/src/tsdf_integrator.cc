@@ -391,7 +391,7 @@ std::vector<BlockIndex> frustumBlocks(const PinholeCamera& camera, const Pose& w
 }
 
 // The image cut into tiles of kTile x kTile pixels, each with its nearest and farthest return
-// within range (what measurePixel takes as one).
+// within range (returnInRange).
 class DepthTiles {
  public:
   static constexpr int kTile = 4;
@@ -401,7 +401,7 @@ class DepthTiles {
         tiles_x_((camera_.width + kTile - 1) / kTile),
         tiles_y_((camera_.height + kTile - 1) / kTile) {
     // Returns in range are the depths in [lowest, highest] compared as floats: the same pixels
-    // as measurePixel's double comparisons.
+    // as returnInRange's double comparisons.
     float lowest = static_cast<float>(image.min_range);
     if (lowest < image.min_range) lowest = std::nextafter(lowest, kInf);
     lowest = std::max(lowest, std::numeric_limits<float>::denorm_min());  // depth 0: no return
