@@ -274,6 +274,8 @@ class EsdfIntegrator::Impl {
           "EsdfIntegrator::update: esdf is not the layer of the previous call (blocks differ)");
     }
     beginCall();
+    // Until the end, should anything throw (std::bad_alloc too): the next call then recomputes.
+    built_ = false;
     std::vector<BlockIndex> blocks = changed_tsdf_blocks;
     std::sort(blocks.begin(), blocks.end(), indexLess);
     blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
@@ -307,7 +309,9 @@ class EsdfIntegrator::Impl {
       sphereDifference(tsdf, position, previous);
     }
     propagate(/*incremental=*/true);
-    return finish(esdf);
+    EsdfUpdateResult result = finish(esdf);
+    built_ = true;
+    return result;
   }
 
   size_t memoryBytes() const {

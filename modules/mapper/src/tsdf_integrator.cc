@@ -15,6 +15,7 @@ namespace {
 using Method = TsdfIntegratorOptions::Method;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr float kInfF = std::numeric_limits<float>::infinity();
 constexpr int kLast = kVoxelsPerSide - 1;
 
 // What one pixel says about the voxels on its line of sight, in the method's distance metric
@@ -163,7 +164,8 @@ inline PixelMeasurement measurePixel(double depth, double scale, const DepthImag
 }
 
 // PinholeCamera::backProject at a frame's pixels, each column's and row's division done once:
-// (u - cx) / fx * depth as there, bit for bit.
+// (u - cx) / fx * depth as there, bit for bit where the compiler does not fuse multiplies and adds
+// (x86-64 without FMA; targets with FMA need -ffp-contract=off for that).
 class PixelRays {
  public:
   explicit PixelRays(const PinholeCamera& camera) : xs_(camera.width), ys_(camera.height) {
@@ -403,15 +405,14 @@ class DepthTiles {
     // Returns in range are the depths in [lowest, highest] compared as floats: the same pixels
     // as returnInRange's double comparisons.
     float lowest = static_cast<float>(image.min_range);
-    if (lowest < image.min_range) lowest = std::nextafter(lowest, kInf);
+    if (lowest < image.min_range) lowest = std::nextafter(lowest, kInfF);
     lowest = std::max(lowest, std::numeric_limits<float>::denorm_min());  // depth 0: no return
     const double max_depth = std::min(image.max_range, range);
     float highest = static_cast<float>(max_depth);
-    if (highest > max_depth) highest = std::nextafter(highest, -kInf);
+    if (highest > max_depth) highest = std::nextafter(highest, -kInfF);
     const size_t tiles = static_cast<size_t>(tiles_x_) * tiles_y_;
-    nearest_.assign(tiles, std::numeric_limits<float>::infinity());
-    farthest_.assign(tiles, -std::numeric_limits<float>::infinity());
-    constexpr float kInfF = std::numeric_limits<float>::infinity();
+    nearest_.assign(tiles, kInfF);
+    farthest_.assign(tiles, -kInfF);
     for (int v = 0; v < camera_.height; ++v) {
       const float* depths = image.depth.data() + static_cast<size_t>(v) * camera_.width;
       const size_t row = static_cast<size_t>(v / kTile) * tiles_x_;
@@ -436,8 +437,8 @@ class DepthTiles {
   // Over tiles tx0..tx1 x ty0..ty1 (inclusive): the nearest and the farthest return in range
   // (+inf and -inf: none).
   struct Bounds {
-    float nearest = std::numeric_limits<float>::infinity();
-    float farthest = -std::numeric_limits<float>::infinity();
+    float nearest = kInfF;
+    float farthest = -kInfF;
   };
   Bounds bounds(int tx0, int ty0, int tx1, int ty1) const {
     Bounds b;
