@@ -128,6 +128,15 @@ struct Classified {
   float value;  // sites: their distance; free and inside voxels: max_distance (unreached)
 };
 
+// A block's array stride along x, y and z.
+constexpr int kStride[3] = {1, kVoxelsPerSide, kVoxelsPerSide* kVoxelsPerSide};
+
+// Whether voxel (x, y, z) of a block has all 26 neighbours in the block.
+inline bool interior(int x, int y, int z) {
+  return static_cast<unsigned>(x - 1) < 14u && static_cast<unsigned>(y - 1) < 14u &&
+         static_cast<unsigned>(z - 1) < 14u;
+}
+
 // Whether a free or inside voxel may be among the neighbours of voxel lin: false skips the scan
 // of sites deep in unobserved space, which the moving occupied sphere creates and removes.
 inline bool nearPropagating(const BlockNode* node, int lin) {
@@ -135,10 +144,7 @@ inline bool nearPropagating(const BlockNode* node, int lin) {
   const int x = lin & 15;
   const int y = (lin >> 4) & 15;
   const int z = lin >> 8;
-  if (static_cast<unsigned>(x - 1) < 14u && static_cast<unsigned>(y - 1) < 14u &&
-      static_cast<unsigned>(z - 1) < 14u) {
-    return false;
-  }
+  if (interior(x, y, z)) return false;
   for (const BlockNode* other : node->neighbours) {
     if (other->propagating > 0) return true;
   }
@@ -152,8 +158,7 @@ inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
   const int x = lin & 15;
   const int y = (lin >> 4) & 15;
   const int z = lin >> 8;
-  if (static_cast<unsigned>(x - 1) < 14u && static_cast<unsigned>(y - 1) < 14u &&
-      static_cast<unsigned>(z - 1) < 14u) {
+  if (interior(x, y, z)) {
     for (int d = 0; d < 26; ++d) f(d, node, lin + kNeighbours.linear[d]);
     return;
   }
@@ -163,12 +168,11 @@ inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
   int local[3][3];
   const int coordinate[3] = {x, y, z};
   constexpr int kSlotStride[3] = {1, 3, 9};
-  constexpr int kLinearStride[3] = {1, kVoxelsPerSide, kVoxelsPerSide * kVoxelsPerSide};
   for (int a = 0; a < 3; ++a) {
     for (int o = 0; o < 3; ++o) {
       const int n = coordinate[a] + o - 1;
       slot[a][o] = ((n + 16) >> 4) * kSlotStride[a];
-      local[a][o] = (n & 15) * kLinearStride[a];
+      local[a][o] = (n & 15) * kStride[a];
     }
   }
   int d = 0;
@@ -187,8 +191,6 @@ inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
 }
 
 constexpr int kLast = kVoxelsPerSide - 1;
-// A block's array stride along x, y and z.
-constexpr int kFaceStride[3] = {1, kVoxelsPerSide, kVoxelsPerSide* kVoxelsPerSide};
 constexpr float kNoSite = std::numeric_limits<float>::infinity();
 
 // A TSDF block and its six face neighbours (nullptr where not allocated): enough to look up a
@@ -515,15 +517,13 @@ class EsdfIntegrator::Impl {
       float site = magnitude <= band_ ? magnitude : kNoSite;
       if (options_.crossing_sites && magnitude > 0) {
         // Off the block's faces the neighbours are in the same block.
-        const bool interior = static_cast<unsigned>(x - 1) < 14u &&
-                              static_cast<unsigned>(y - 1) < 14u &&
-                              static_cast<unsigned>(z - 1) < 14u;
+        const bool inner = interior(x, y, z);
         for (int face = 0; face < 6; ++face) {
           const int step = face % 2 ? 1 : -1;
           const TsdfVoxel* n =
-              interior ? t + step * kFaceStride[face / 2]
-                       : star.voxel(x + (face / 2 == 0 ? step : 0), y + (face / 2 == 1 ? step : 0),
-                                    z + (face / 2 == 2 ? step : 0));
+              inner ? t + step * kStride[face / 2]
+                    : star.voxel(x + (face / 2 == 0 ? step : 0), y + (face / 2 == 1 ? step : 0),
+                                 z + (face / 2 == 2 ? step : 0));
           if (!observed(n) || !(d > 0 ? n->distance <= 0 : n->distance >= 0)) continue;
           // A signed distance changes by at most the voxel size between neighbours: a larger
           // sum means one side is stretched (a slant) or truncated, and which is unknown, so the

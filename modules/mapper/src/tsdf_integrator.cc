@@ -16,7 +16,6 @@ using Method = TsdfIntegratorOptions::Method;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr float kInfF = std::numeric_limits<float>::infinity();
-constexpr int kLast = kVoxelsPerSide - 1;
 
 // What one pixel says about the voxels on its line of sight, in the method's distance metric
 // (optical z for the projective method, range along the ray for the ray caster).
@@ -650,8 +649,9 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
     if (tiles) {
       std::array<Eigen::Vector3d, 8> corners;
       for (int c = 0; c < 8; ++c) {
-        corners[c] = first + kLast * ((c & 1) * steps.col(0) + (c >> 1 & 1) * steps.col(1) +
-                                      (c >> 2) * steps.col(2));
+        corners[c] =
+            first + (kVoxelsPerSide - 1) * ((c & 1) * steps.col(0) + (c >> 1 & 1) * steps.col(1) +
+                                            (c >> 2) * steps.col(2));
       }
       if (const auto seen = tiles->blockBounds(corners)) {
         // A hair deeper, so that rounding cannot drop a voxel the exact test would keep.
