@@ -27,7 +27,7 @@ const std::vector<std::vector<uint8_t>>& snapshotMessages() {
     EsdfLayer esdf(0.1);
     for (const FlightFrame& frame : flightFrames()) {
       const auto changed = tsdf_integrator.integrate(frame.image, frame.world_T_camera, tsdf);
-      esdf_integrator.update(tsdf, changed.changed_blocks, frame.world_T_body.position, esdf);
+      esdf_integrator.update(tsdf, changed, frame.world_T_body.position, esdf);
     }
     std::vector<std::vector<uint8_t>> encoded;
     for (const map_update_t& part : encodeMapUpdate(esdf, {1, 1, 1, true}, {}, {})) {

@@ -64,8 +64,8 @@ void esdfFlight(benchmark::State& state, double voxel, size_t stride) {
       [&](const FlightFrame& frame) {
         const auto changed = tsdf_integrator.integrate(frame.image, frame.world_T_camera, tsdf);
         return timeMs([&] {
-          benchmark::DoNotOptimize(esdf_integrator.update(tsdf, changed.changed_blocks,
-                                                          frame.world_T_body.position, esdf));
+          benchmark::DoNotOptimize(
+              esdf_integrator.update(tsdf, changed, frame.world_T_body.position, esdf));
         });
       },
       stride);

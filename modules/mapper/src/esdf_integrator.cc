@@ -269,6 +269,36 @@ class EsdfIntegrator::Impl {
 
   EsdfUpdateResult update(const TsdfLayer& tsdf, const std::vector<BlockIndex>& changed_tsdf_blocks,
                           const Eigen::Vector3d& position, EsdfLayer& esdf) {
+    return incremental(tsdf, position, esdf, [&] {
+      for (const BlockIndex& b : changed_tsdf_blocks) addWork(tsdf, b, BlockVoxels::all());
+    });
+  }
+
+  EsdfUpdateResult update(const TsdfLayer& tsdf, const TsdfIntegrationResult& integration,
+                          const Eigen::Vector3d& position, EsdfLayer& esdf) {
+    if (integration.changed_voxels.size() != integration.changed_blocks.size()) {
+      throw std::invalid_argument(
+          "EsdfIntegrator::update: the integration reports " +
+          std::to_string(integration.changed_voxels.size()) + " voxel sets for " +
+          std::to_string(integration.changed_blocks.size()) + " changed blocks");
+    }
+    const bool reported = integration.observed_weight == min_weight_;
+    return incremental(tsdf, position, esdf, [&] {
+      for (size_t i = 0; i < integration.changed_blocks.size(); ++i) {
+        const BlockIndex& b = integration.changed_blocks[i];
+        addWork(tsdf, b,
+                reported && tsdf.block(b) != nullptr ? integration.changed_voxels[i]
+                                                     : BlockVoxels::all());
+      }
+    });
+  }
+
+  // An incremental update: collect() lists the TSDF voxels that changed (addWork), then their
+  // voxels, those whose sphere membership changed, and every distance that depends on them are
+  // updated.
+  template <class Collect>
+  EsdfUpdateResult incremental(const TsdfLayer& tsdf, const Eigen::Vector3d& position,
+                               EsdfLayer& esdf, Collect&& collect) {
     checkInputs(tsdf, position, esdf);
     if (!built_ || tsdf.voxelSize() != voxel_size_) return recompute(tsdf, position, esdf);
     if (esdf.numBlocks() != nodes_.size()) {
@@ -278,33 +308,22 @@ class EsdfIntegrator::Impl {
     beginCall();
     // Until the end, should anything throw (std::bad_alloc too): the next call then recomputes.
     built_ = false;
-    std::vector<BlockIndex> blocks = changed_tsdf_blocks;
-    std::sort(blocks.begin(), blocks.end(), indexLess);
-    blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
     const Eigen::Vector3d previous = position_;
     position_ = position;
-    for (const BlockIndex& b : blocks) {
+    collect();
+    // Block by block in index order, each block once with the union of its sets.
+    std::sort(work_.begin(), work_.end(), [](const Work& a, const Work& b) {
+      return indexLess(a.block, b.block) || (a.block == b.block && a.set < b.set);
+    });
+    for (size_t i = 0; i < work_.size();) {
+      const BlockIndex b = work_[i].block;
+      BlockVoxels& voxels = work_sets_[work_[i].set];
+      for (++i; i < work_.size() && work_[i].block == b; ++i) voxels |= work_sets_[work_[i].set];
       const TsdfStar star(tsdf, b);
       BlockNode* node = find(b);
       // Without either, every voxel was unknown and stays so, except where the occupied sphere
       // arrived, which sphereDifference handles.
-      if (star.centre() != nullptr || node != nullptr) {
-        classifyVoxels(b, star, node, {0, 0, 0}, {kLast, kLast, kLast});
-      }
-      if (!options_.crossing_sites) continue;
-      // A voxel's zero crossings look at its face neighbours: the layer of each neighbouring
-      // block that touches this one may have changed too.
-      for (int face = 0; face < 6; ++face) {
-        const int axis = face / 2;
-        const BlockIndex n = b + (face % 2 ? 1 : -1) * BlockIndex::Unit(axis);
-        if (std::binary_search(blocks.begin(), blocks.end(), n, indexLess)) continue;
-        const TsdfStar neighbour(tsdf, n);
-        if (neighbour.centre() == nullptr) continue;  // unobserved there: nothing depends on b
-        VoxelIndex lo(0, 0, 0), hi(kLast, kLast, kLast);
-        lo[axis] = hi[axis] = face % 2 ? 0 : kLast;
-        BlockNode* neighbour_node = find(n);
-        classifyVoxels(n, neighbour, neighbour_node, lo, hi);
-      }
+      if (star.centre() != nullptr || node != nullptr) classifyVoxels(b, star, node, voxels);
     }
     if (previous != position) {
       sphereDifference(tsdf, previous, position);
@@ -316,6 +335,46 @@ class EsdfIntegrator::Impl {
     return result;
   }
 
+  // Lists the voxels of block b whose TSDF voxels changed for classification, with the voxels
+  // whose class reads them: with crossing_sites, their face neighbours, in this block or the next.
+  void addWork(const TsdfLayer& tsdf, const BlockIndex& b, const BlockVoxels& changed) {
+    if (!options_.crossing_sites) {
+      pushWork(b, changed);
+      return;
+    }
+    BlockVoxels within;
+    std::array<BlockVoxels, 6> across;
+    for (int z = 0; z < kVoxelsPerSide; ++z) {
+      for (int y = 0; y < kVoxelsPerSide; ++y) {
+        const int r = y + kVoxelsPerSide * z;
+        const uint16_t row = changed.rows[r];
+        if (row == 0) continue;
+        within.rows[r] |= row | static_cast<uint16_t>(row << 1) | static_cast<uint16_t>(row >> 1);
+        if (y > 0) within.rows[r - 1] |= row;
+        if (y < kLast) within.rows[r + 1] |= row;
+        if (z > 0) within.rows[r - kVoxelsPerSide] |= row;
+        if (z < kLast) within.rows[r + kVoxelsPerSide] |= row;
+        // Faces -x, +x, -y, +y, -z, +z: the neighbour's voxel on the other side of the face.
+        if (row & 1) across[0].rows[r] |= 1u << kLast;
+        if (row >> kLast) across[1].rows[r] |= 1u;
+        if (y == 0) across[2].rows[kLast + kVoxelsPerSide * z] = row;
+        if (y == kLast) across[3].rows[kVoxelsPerSide * z] = row;
+        if (z == 0) across[4].rows[y + kVoxelsPerSide * kLast] = row;
+        if (z == kLast) across[5].rows[y] = row;
+      }
+    }
+    pushWork(b, within);
+    for (int face = 0; face < 6; ++face) {
+      const BlockIndex n = b + (face % 2 ? 1 : -1) * BlockIndex::Unit(face / 2);
+      // Unobserved voxels' classes read no neighbour: without a TSDF block, nothing there does.
+      if (!across[face].empty() && tsdf.block(n) != nullptr) pushWork(n, across[face]);
+    }
+  }
+  void pushWork(const BlockIndex& b, const BlockVoxels& voxels) {
+    work_.push_back({b, static_cast<uint32_t>(work_sets_.size())});
+    work_sets_.push_back(voxels);
+  }
+
   size_t memoryBytes() const {
     // A node per allocated block (with its hash-map entry), and the lists' capacities.
     const size_t nodes =
@@ -324,7 +383,8 @@ class EsdfIntegrator::Impl {
     return nodes + by_id_.capacity() * sizeof(BlockNode*) +
            free_ids_.capacity() * sizeof(uint32_t) + touched_.capacity() * sizeof(Touched) +
            (raise_.capacity() + seeds_.capacity() + tentative_.capacity()) * sizeof(VoxelRef) +
-           queue_.memoryBytes() + changed_nodes_.capacity() * sizeof(BlockNode*);
+           queue_.memoryBytes() + changed_nodes_.capacity() * sizeof(BlockNode*) +
+           work_.capacity() * sizeof(Work) + work_sets_.capacity() * sizeof(BlockVoxels);
   }
 
   EsdfUpdateResult recompute(const TsdfLayer& tsdf, const Eigen::Vector3d& position,
@@ -354,7 +414,7 @@ class EsdfIntegrator::Impl {
     std::sort(blocks.begin(), blocks.end(), indexLess);
     blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
     for (const BlockIndex& b : blocks) {
-      classifyVoxels(b, TsdfStar(tsdf, b), nullptr, {0, 0, 0}, {kLast, kLast, kLast});
+      classifyVoxels(b, TsdfStar(tsdf, b), nullptr, BlockVoxels::all());
     }
     propagate(/*incremental=*/false);
 
@@ -409,6 +469,8 @@ class EsdfIntegrator::Impl {
     clearList(tentative_);
     queue_.clear();
     clearList(changed_nodes_);
+    clearList(work_);
+    clearList(work_sets_);
   }
 
   BlockNode* find(const BlockIndex& b) const {
@@ -596,10 +658,10 @@ class EsdfIntegrator::Impl {
     }
   }
 
-  // Classifies the voxels lo..hi (local coordinates, inclusive) of block b (node: nullptr if not
-  // allocated yet), reclassifying those whose class changed.
+  // Classifies the voxels `which` of block b (node: nullptr if not allocated yet), reclassifying
+  // those whose class changed.
   void classifyVoxels(const BlockIndex& b, const TsdfStar& star, BlockNode* node,
-                      const VoxelIndex& lo, const VoxelIndex& hi) {
+                      const BlockVoxels& which) {
     const VoxelIndex origin = b * kVoxelsPerSide;
     const Span whole{origin.x(), origin.x() + kVoxelsPerSide - 1};
     // Blocks clear of a sphere's surface by a voxel take their spans without asking rowSpan.
@@ -616,11 +678,14 @@ class EsdfIntegrator::Impl {
              : relation == kWithin ? whole
                                    : rowSpan(p, r2, y, z, voxel_size_);
     };
-    for (int z = lo.z(); z <= hi.z(); ++z) {
-      for (int y = lo.y(); y <= hi.y(); ++y) {
+    for (int z = 0; z < kVoxelsPerSide; ++z) {
+      for (int y = 0; y < kVoxelsPerSide; ++y) {
+        unsigned row = which.rows[y + kVoxelsPerSide * z];
+        if (row == 0) continue;
         const Span clear = spanOf(to_clear, initial_, rc2_, origin.y() + y, origin.z() + z);
         const Span occupied = spanOf(to_occupied, position_, ro2_, origin.y() + y, origin.z() + z);
-        for (int x = lo.x(); x <= hi.x(); ++x) {
+        for (; row != 0; row &= row - 1) {
+          const int x = std::countr_zero(row);
           const int lin = x + kVoxelsPerSide * (y + kVoxelsPerSide * z);
           const Classified c = classify(star, x, y, z, origin.x() + x, clear, occupied);
           if (!unchanged(node, lin, c)) reclassify(node, b, lin, c);
@@ -892,6 +957,12 @@ class EsdfIntegrator::Impl {
   std::vector<VoxelRef> tentative_;
   MonotoneQueue queue_;
   std::vector<BlockNode*> changed_nodes_;
+  struct Work {
+    BlockIndex block;
+    uint32_t set;  // in work_sets_
+  };
+  std::vector<Work> work_;
+  std::vector<BlockVoxels> work_sets_;
   std::vector<BlockNode*> row_nodes_;
   std::vector<const TsdfLayer::BlockType*> row_tsdf_;
 };
@@ -914,6 +985,12 @@ EsdfUpdateResult EsdfIntegrator::update(const TsdfLayer& tsdf,
                                         const std::vector<BlockIndex>& changed_tsdf_blocks,
                                         const Eigen::Vector3d& current_position, EsdfLayer& esdf) {
   return impl_->update(tsdf, changed_tsdf_blocks, current_position, esdf);
+}
+
+EsdfUpdateResult EsdfIntegrator::update(const TsdfLayer& tsdf,
+                                        const TsdfIntegrationResult& integration,
+                                        const Eigen::Vector3d& current_position, EsdfLayer& esdf) {
+  return impl_->update(tsdf, integration, current_position, esdf);
 }
 
 size_t EsdfIntegrator::memoryBytes() const {

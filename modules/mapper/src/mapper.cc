@@ -32,12 +32,18 @@ const MapperOptions& checked(const MapperOptions& options) {
   return options;
 }
 
+// The TSDF reports the voxels whose observed-ness changes at the ESDF's threshold.
+TsdfIntegratorOptions reportingTo(TsdfIntegratorOptions tsdf, const EsdfIntegratorOptions& esdf) {
+  tsdf.observed_weight = esdf.min_weight;
+  return tsdf;
+}
+
 }  // namespace
 
 Mapper::Mapper(MapperOptions options, std::function<double()> now_ms)
     : options_(checked(options)),
       now_ms_(now_ms ? std::move(now_ms) : [] { return 0.0; }),
-      tsdf_integrator_(options.tsdf),
+      tsdf_integrator_(reportingTo(options.tsdf, options.esdf)),
       esdf_integrator_(options.esdf),
       tsdf_(options.voxel_size),
       esdf_(options.voxel_size),
@@ -133,7 +139,7 @@ std::vector<FrameOutcome> Mapper::integrateReady(std::vector<MapRevisionUpdate>&
     const double integrated = now_ms_();
     EsdfUpdateResult esdf;
     try {
-      esdf = esdf_integrator_.update(tsdf_, tsdf.changed_blocks, lookup.pose.position, esdf_);
+      esdf = esdf_integrator_.update(tsdf_, tsdf, lookup.pose.position, esdf_);
     } catch (const std::exception& e) {
       // Never left pending to throw again with every later input. The TSDF took the frame; the
       // ESDF misses its changes until they are observed again.

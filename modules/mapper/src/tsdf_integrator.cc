@@ -2,12 +2,13 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
-#include <unordered_set>
+#include <unordered_map>
 
 namespace thicket::mapper {
 namespace {
@@ -25,16 +26,26 @@ struct PixelMeasurement {
   double weight = 0;       // 0: the pixel says nothing
 };
 
+// What updates did: whether a block's stored values changed, and whether the voxel at hand
+// changed in what the ESDF reads (TsdfIntegrationResult::changed_voxels).
+struct Changes {
+  bool block = false;
+  bool voxel = false;
+};
+
 // The per-voxel update rule shared by both methods (see the header).
 class VoxelUpdater {
  public:
   VoxelUpdater(double voxel_size, double truncation, double max_weight, bool new_surfaces_replace,
-               double new_surface_shadow)
+               double new_surface_shadow, float observed_weight)
       : voxel_size_(voxel_size),
         truncation_(truncation),
         max_weight_(max_weight),
         new_surfaces_replace_(new_surfaces_replace),
-        new_surface_shadow_(new_surface_shadow) {}
+        new_surface_shadow_(new_surface_shadow),
+        observed_weight_(observed_weight) {}
+
+  float observedWeight() const { return observed_weight_; }
 
   double truncation() const { return truncation_; }
   double newSurfaceShadow() const { return new_surface_shadow_; }
@@ -49,17 +60,16 @@ class VoxelUpdater {
   // truncation: what the map has there as free is stale, and the voxel becomes unobserved, so
   // that within the truncation it takes the frame's measurement alone (update) and beyond it
   // waits for a view. Returns whether the voxel was in that shadow and free (it was then reset).
-  bool clearShadow(TsdfVoxel& voxel, double sdf, bool& changed) const {
+  bool clearShadow(TsdfVoxel& voxel, double sdf, Changes& changes) const {
     if (!(sdf < -voxel_size_ && sdf > -truncation_ - new_surface_shadow_)) return false;
     if (!(voxel.weight > 0 && voxel.distance > 0)) return false;
-    voxel = TsdfVoxel{};
-    changed = true;
+    store(voxel, 0.0f, 0.0f, changes);
     return true;
   }
 
   // Applies the measurement when the voxel is within the truncation behind the surface; returns
-  // whether it was applied, and sets changed when the voxel's stored values differ afterwards.
-  bool update(TsdfVoxel& voxel, double sdf, double weight, bool& changed) const {
+  // whether it was applied, and records what changed.
+  bool update(TsdfVoxel& voxel, double sdf, double weight, Changes& changes) const {
     if (!(sdf > -truncation_)) return false;
     if (sdf < -voxel_size_) weight *= (truncation_ + sdf) / (truncation_ - voxel_size_);
     sdf = std::min(sdf, truncation_);
@@ -68,33 +78,44 @@ class VoxelUpdater {
       // (an obstacle that appeared, or a surface earlier views only passed by). Averaged in, it
       // would take several frames to outweigh the free-space history while the ESDF promised
       // clearance that is not there; the measurement replaces the history instead.
-      const auto distance = static_cast<float>(sdf);
-      const auto new_weight = static_cast<float>(std::min(weight, max_weight_));
-      changed |= distance != voxel.distance || new_weight != voxel.weight;
-      voxel.distance = distance;
-      voxel.weight = new_weight;
+      store(voxel, static_cast<float>(sdf), static_cast<float>(std::min(weight, max_weight_)),
+            changes);
       return true;
     }
     // In double, then rounded once: repeated equal measurements leave the distance bit for bit
     // unchanged, so saturated voxels do not count as changed.
     const double old_weight = voxel.weight;
     const double sum = old_weight + weight;
-    const auto distance = static_cast<float>((old_weight * voxel.distance + weight * sdf) / sum);
-    const auto new_weight = static_cast<float>(std::min(sum, max_weight_));
-    if (distance != voxel.distance || new_weight != voxel.weight) {
-      voxel.distance = distance;
-      voxel.weight = new_weight;
-      changed = true;
-    }
+    store(voxel, static_cast<float>((old_weight * voxel.distance + weight * sdf) / sum),
+          static_cast<float>(std::min(sum, max_weight_)), changes);
     return true;
   }
 
  private:
+  // Stores a voxel's new values: the block changed if they differ, and the voxel is reported
+  // (TsdfIntegrationResult::changed_voxels) if its distance did, bit for bit, or whether its
+  // weight reaches observed_weight. (A distance that only changes the sign of a zero does not
+  // change the block, as before reports existed.)
+  void store(TsdfVoxel& voxel, float distance, float weight, Changes& changes) const {
+    const bool reported =
+        std::bit_cast<uint32_t>(distance) != std::bit_cast<uint32_t>(voxel.distance) ||
+        (weight >= observed_weight_) != (voxel.weight >= observed_weight_);
+    const bool differs = distance != voxel.distance || weight != voxel.weight;
+    changes.block |= differs;
+    changes.voxel |= reported;
+    // Unchanged voxels are not written: their cache lines stay clean.
+    if (differs || reported) {
+      voxel.distance = distance;
+      voxel.weight = weight;
+    }
+  }
+
   double voxel_size_;
   double truncation_;
   double max_weight_;
   bool new_surfaces_replace_;
   double new_surface_shadow_;
+  float observed_weight_;
 };
 
 double measurementWeight(double depth) {
@@ -633,12 +654,16 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
   TsdfIntegrationResult result;
   // New blocks are filled here first and allocated only if some voxel was updated.
   std::vector<TsdfVoxel> scratch(kVoxelsPerBlock);
+  // The voxels of the block at hand to report, cleared after a block that had some.
+  BlockVoxels reported;
   // Without carving: where the returns are, for the blocks to visit and how deep.
   std::optional<DepthTiles> tiles;
   if (!options.carve_free_space) tiles.emplace(image, options.max_integration_range);
   const std::vector<BlockIndex> blocks =
       tiles ? SurfaceBlocks(*tiles, camera, world_T_camera, options, updater, deepest, layer)()
             : frustumBlocks(camera, world_T_camera, camera_T_world, layer, max_depth);
+  result.changed_blocks.reserve(blocks.size());
+  result.changed_voxels.reserve(blocks.size());
   for (const BlockIndex& b : blocks) {
     TsdfLayer::BlockType* block = layer.block(b);
     TsdfVoxel* voxels = block ? block->voxels.data() : scratch.data();
@@ -660,7 +685,8 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
       if (!(block_depth > 0)) continue;  // no return in view: nothing to update
     }
     int64_t updated = 0;
-    bool changed = false;
+    Changes changes;
+    bool any_reported = false;
     for (int k = 0; k < kVoxelsPerSide; ++k) {
       const Eigen::Vector3d slice = first + k * steps.col(2);
       for (int j = 0; j < kVoxelsPerSide; ++j) {
@@ -693,6 +719,7 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
           rows[i] = static_cast<int>(seen ? row : -1.0);
           columns[i] = static_cast<int>(seen ? column : 0.0);
         }
+        unsigned row_reported = 0;
         for (int i = lo; i <= hi; ++i) {
           if (rows[i] < 0) continue;
           const size_t pixel = static_cast<size_t>(rows[i]) * camera.width + columns[i];
@@ -712,8 +739,14 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
           const double sdf = towardSurface(m.distance - z, to_surface);
           // The stale free space behind a new surface goes first, so that what the frame
           // measures there is all the voxel holds.
-          const bool reset = shadow.at(pixel) && updater.clearShadow(row_voxels[i], sdf, changed);
-          if (updater.update(row_voxels[i], sdf, m.weight, changed) || reset) ++updated;
+          changes.voxel = false;
+          const bool reset = shadow.at(pixel) && updater.clearShadow(row_voxels[i], sdf, changes);
+          if (updater.update(row_voxels[i], sdf, m.weight, changes) || reset) ++updated;
+          row_reported |= static_cast<unsigned>(changes.voxel) << i;
+        }
+        if (row_reported != 0) {
+          reported.rows[j + kVoxelsPerSide * k] = static_cast<uint16_t>(row_reported);
+          any_reported = true;
         }
       }
     }
@@ -723,8 +756,13 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
       std::fill(scratch.begin(), scratch.end(), TsdfVoxel{});
     }
     result.voxels_updated += updated;
-    if (changed) result.changed_blocks.push_back(b);
+    if (changes.block) {
+      result.changed_blocks.push_back(b);
+      result.changed_voxels.push_back(reported);
+    }
+    if (any_reported) reported = BlockVoxels{};
   }
+  result.observed_weight = updater.observedWeight();
   return result;
 }
 
@@ -767,14 +805,14 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
 
   TsdfIntegrationResult result;
   // Rays cross few blocks, and neighbouring rays the same ones: a block is looked up only when a
-  // ray enters it. changed_set lists each changed block once.
-  std::unordered_set<BlockIndex, IndexHash> changed_set;
+  // ray enters it. changed lists each changed block once, with its reported voxels.
+  std::unordered_map<BlockIndex, BlockVoxels, IndexHash> changed;
   BlockIndex cached_index = blockOfVoxel(origin_voxel);
   TsdfLayer::BlockType* cached = layer.block(cached_index);
-  bool cached_changed = false;
+  BlockVoxels* cached_changed = nullptr;
   // Walks the pixel's ray from the camera up to range t_end: visit(block, linear index, sdf) at
   // every voxel, block null where none is allocated; visit allocates one when it must, and
-  // returns whether it changed the voxel.
+  // returns what it changed.
   const auto walk = [&](size_t pixel, double t_end, auto&& visit) {
     const PixelMeasurement& m = pixels[pixel];
     const int u = static_cast<int>(pixel % camera.width);
@@ -789,15 +827,17 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
       if (b != cached_index) {
         cached_index = b;
         cached = layer.block(b);
-        cached_changed = changed_set.contains(b);
+        const auto found = changed.find(b);
+        cached_changed = found != changed.end() ? &found->second : nullptr;
       }
       const double sdf =
           towardSurface(m.distance - center_along_ray,
                         options.normal_distances ? alongNormal(cosines[pixel]) : 1.0);
       const int linear = (x.voxel & 15) + 16 * (y.voxel & 15) + 256 * (z.voxel & 15);
-      if (visit(b, linear, sdf) && !cached_changed) {
-        changed_set.insert(b);
-        cached_changed = true;
+      const Changes changes = visit(b, linear, sdf);
+      if (changes.block) {
+        if (!cached_changed) cached_changed = &changed[b];
+        if (changes.voxel) cached_changed->insert(linear);
       }
       AxisWalk& next =
           x.t_next <= y.t_next ? (x.t_next <= z.t_next ? x : z) : (y.t_next <= z.t_next ? y : z);
@@ -815,11 +855,11 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
     if (!shadow.pixels[pixel] || !std::isinf(pixels[pixel].max_voxel)) continue;
     const double t_end = pixels[pixel].distance + updater.truncation() + updater.newSurfaceShadow();
     walk(pixel, t_end, [&](const BlockIndex&, int linear, double sdf) {
-      bool changed = false;
-      if (cached && updater.clearShadow(cached->voxels[linear], sdf, changed)) {
+      Changes changes;
+      if (cached && updater.clearShadow(cached->voxels[linear], sdf, changes)) {
         ++result.voxels_updated;
       }
-      return changed;
+      return changes;
     });
   }
   for (size_t pixel = 0; pixel < pixels.size(); ++pixel) {
@@ -827,17 +867,23 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
     if (m.weight == 0) continue;
     const double t_end = std::min(m.distance + updater.truncation(), m.max_voxel);
     walk(pixel, t_end, [&](const BlockIndex& b, int linear, double sdf) {
-      bool changed = false;
+      Changes changes;
       if (sdf > -updater.truncation()) {
         if (!cached) cached = &layer.allocateBlock(b);
-        updater.update(cached->voxels[linear], sdf, m.weight, changed);
+        updater.update(cached->voxels[linear], sdf, m.weight, changes);
         ++result.voxels_updated;
       }
-      return changed;
+      return changes;
     });
   }
-  result.changed_blocks.assign(changed_set.begin(), changed_set.end());
-  std::sort(result.changed_blocks.begin(), result.changed_blocks.end(), indexLess);
+  std::vector<std::pair<BlockIndex, BlockVoxels>> sorted(changed.begin(), changed.end());
+  std::sort(sorted.begin(), sorted.end(),
+            [](const auto& a, const auto& b) { return indexLess(a.first, b.first); });
+  for (const auto& [b, voxels] : sorted) {
+    result.changed_blocks.push_back(b);
+    result.changed_voxels.push_back(voxels);
+  }
+  result.observed_weight = updater.observedWeight();
   return result;
 }
 
@@ -874,6 +920,9 @@ TsdfIntegrator::TsdfIntegrator(TsdfIntegratorOptions options) : options_(options
   if (const std::string error = paramsError(options_); !error.empty()) {
     throw std::invalid_argument("TsdfIntegrator: " + error);
   }
+  if (!(options_.observed_weight > 0 && std::isfinite(options_.observed_weight))) {
+    throw std::invalid_argument("TsdfIntegrator: observed_weight must be positive and finite");
+  }
   if (!options_.carve_free_space && options_.method == Method::kRaycast) {
     throw std::invalid_argument(
         "TsdfIntegrator: carve_free_space false needs the projective method");
@@ -887,7 +936,8 @@ TsdfIntegrationResult TsdfIntegrator::integrate(const DepthImage& image, const P
   const Pose pose{world_T_camera.position, world_T_camera.orientation.normalized()};
   const VoxelUpdater updater(layer.voxelSize(), options_.truncation_voxels * layer.voxelSize(),
                              options_.max_weight, options_.new_surfaces_replace,
-                             options_.new_surface_shadow);
+                             options_.new_surface_shadow,
+                             static_cast<float>(options_.observed_weight));
   return options_.method == Method::kProjective
              ? integrateProjective(image, pose, options_, updater, layer)
              : integrateRaycast(image, pose, options_, updater, layer);

@@ -33,6 +33,9 @@ using thicket::mapper::EsdfIntegrator;
 using thicket::mapper::EsdfIntegratorOptions;
 using thicket::mapper::EsdfUpdateResult;
 
+// No TSDF block changed (a bare {} would be ambiguous: update() takes blocks or an integration).
+const std::vector<BlockIndex> kNoChange;
+
 // Far from every test world: the unknown-space spheres stay out of the way there.
 const Eigen::Vector3d kFarAway(-100, -100, 50);
 
@@ -400,7 +403,7 @@ TEST(EsdfIntegrator, UnknownSpacePolicy) {
   EsdfIntegrator integrator(options);
   integrator.setInitialPosition(start);
   EsdfLayer esdf(vs);
-  integrator.update(tsdf, {}, start, esdf);
+  integrator.update(tsdf, kNoChange, start, esdf);
   // The voxel at p, or an unknown one if its block is not allocated.
   auto at = [&](const Eigen::Vector3d& p) {
     const EsdfVoxel* v = esdf.voxel(esdf.voxelIndex(p));
@@ -480,7 +483,7 @@ TEST(EsdfIntegrator, UnknownSpacePolicy) {
   // The vehicle moves 3 m along x: the occupied sphere follows it.
   const Eigen::Vector3d moved = start + Eigen::Vector3d(3, 0, 0);
   const Snapshot before = snapshot(esdf);
-  const EsdfUpdateResult result = integrator.update(tsdf, {}, moved, esdf);
+  const EsdfUpdateResult result = integrator.update(tsdf, kNoChange, moved, esdf);
   expectReportMatches(before, snapshot(esdf), result);
   EXPECT_FALSE(result.removed_blocks.empty());
   expectSpheres(moved);
@@ -495,7 +498,7 @@ TEST(EsdfIntegrator, UnknownSpacePolicy) {
 
   // A new initial position moves the clear sphere: the next update() starts over.
   integrator.setInitialPosition(moved);
-  integrator.update(tsdf, {}, moved, esdf);
+  integrator.update(tsdf, kNoChange, moved, esdf);
   reference.setInitialPosition(moved);
   reference.recompute(tsdf, moved, expected);
   EXPECT_TRUE(sameEsdf(esdf, expected, 1e-5));
@@ -528,7 +531,7 @@ TEST(EsdfIntegrator, RaiseWhenAnObstacleDisappears) {
   EXPECT_LT(distanceAt(esdf, axis), -0.3);
 
   // Nothing changed: nothing to do.
-  EsdfUpdateResult result = integrator.update(tsdf, {}, kFarAway, esdf);
+  EsdfUpdateResult result = integrator.update(tsdf, kNoChange, kFarAway, esdf);
   EXPECT_TRUE(result.changed_blocks.empty());
   EXPECT_EQ(result.voxels_updated, 0);
 
@@ -577,21 +580,28 @@ TEST(EsdfIntegrator, RefusesBadInput) {
   const TsdfLayer tsdf(0.2);
   EsdfLayer esdf(0.2);
   EsdfIntegrator integrator{EsdfIntegratorOptions{}};
-  EXPECT_THROW(integrator.update(tsdf, {}, Eigen::Vector3d::Zero(), esdf), std::logic_error);
+  EXPECT_THROW(integrator.update(tsdf, kNoChange, Eigen::Vector3d::Zero(), esdf), std::logic_error);
   EXPECT_THROW(integrator.recompute(tsdf, Eigen::Vector3d::Zero(), esdf), std::logic_error);
   EXPECT_THROW(integrator.setInitialPosition(Eigen::Vector3d(nan, 0, 0)), std::invalid_argument);
   integrator.setInitialPosition(Eigen::Vector3d::Zero());
   EsdfLayer coarse(0.4);
-  EXPECT_THROW(integrator.update(tsdf, {}, Eigen::Vector3d::Zero(), coarse), std::invalid_argument);
-  EXPECT_THROW(integrator.update(tsdf, {}, Eigen::Vector3d(0, nan, 0), esdf),
+  EXPECT_THROW(integrator.update(tsdf, kNoChange, Eigen::Vector3d::Zero(), coarse),
                std::invalid_argument);
-  EXPECT_THROW(integrator.update(tsdf, {}, Eigen::Vector3d(0, 0, 1e300), esdf),
+  EXPECT_THROW(integrator.update(tsdf, kNoChange, Eigen::Vector3d(0, nan, 0), esdf),
+               std::invalid_argument);
+  EXPECT_THROW(integrator.update(tsdf, kNoChange, Eigen::Vector3d(0, 0, 1e300), esdf),
                std::invalid_argument);
   EXPECT_EQ(esdf.numBlocks(), 0u);
-  integrator.update(tsdf, {}, Eigen::Vector3d::Zero(), esdf);
+  integrator.update(tsdf, kNoChange, Eigen::Vector3d::Zero(), esdf);
   EXPECT_GT(esdf.numBlocks(), 0u);
+  // A report without a voxel set per changed block.
+  thicket::mapper::TsdfIntegrationResult report;
+  report.changed_blocks.push_back(BlockIndex(0, 0, 0));
+  report.observed_weight = static_cast<float>(EsdfIntegratorOptions{}.min_weight);
+  EXPECT_THROW(integrator.update(tsdf, report, Eigen::Vector3d::Zero(), esdf),
+               std::invalid_argument);
   esdf.allocateBlock(BlockIndex(100, 0, 0));
-  EXPECT_THROW(integrator.update(tsdf, {}, Eigen::Vector3d::Zero(), esdf), std::logic_error);
+  EXPECT_THROW(integrator.update(tsdf, kNoChange, Eigen::Vector3d::Zero(), esdf), std::logic_error);
 
   // The options load from YAML with the same validation.
   EXPECT_THROW(thicket::loadParamsFromString<EsdfIntegratorOptions>("max_distance: -1\n", "t"),
@@ -686,6 +696,9 @@ TEST(EsdfIntegrator, FrameTimesWithNoisyMeasurements) {
 // density 0.2, seed 1, every 0.25 m, integrated into the TSDF and the ESDF as the mapper does,
 // the occupied sphere following the vehicle. update() must equal recompute() after every
 // `check_every`-th frame and the last.
+// Maps the benchmark flight twice: from the integration's report of changed voxels, and from
+// the whole changed blocks. Both give the same layer at every frame, bit for bit, and equal a
+// recompute every check_every-th frame and at the end.
 void flyBenchmarkFlight(double voxel_size, size_t check_every) {
   const std::vector<thicket::Pose> poses = thicket::bench::flightPoses(0.25, 80);
   const thicket::sim::DepthRenderer renderer(thicket::bench::forest(),
@@ -694,15 +707,23 @@ void flyBenchmarkFlight(double voxel_size, size_t check_every) {
   const EsdfIntegratorOptions options;
   EsdfIntegrator integrator(options);
   integrator.setInitialPosition(poses.front().position);
+  EsdfIntegrator by_blocks(options);
+  by_blocks.setInitialPosition(poses.front().position);
   EsdfIntegrator reference(options);
   reference.setInitialPosition(poses.front().position);
   TsdfLayer tsdf(voxel_size);
   EsdfLayer esdf(voxel_size);
+  EsdfLayer esdf_by_blocks(voxel_size);
   int64_t utime = 0;
   for (size_t i = 0; i < poses.size(); ++i) {
     const thicket::DepthImage image = renderer.renderImage(poses[i], utime += 250'000);
     const auto changed = tsdf_integrator.integrate(image, poses[i] * renderer.cameraInBody(), tsdf);
-    integrator.update(tsdf, changed.changed_blocks, poses[i].position, esdf);
+    const EsdfUpdateResult result = integrator.update(tsdf, changed, poses[i].position, esdf);
+    const EsdfUpdateResult result_by_blocks =
+        by_blocks.update(tsdf, changed.changed_blocks, poses[i].position, esdf_by_blocks);
+    ASSERT_TRUE(sameEsdf(esdf, esdf_by_blocks, 0)) << "frame " << i;
+    EXPECT_EQ(result.changed_blocks, result_by_blocks.changed_blocks) << "frame " << i;
+    EXPECT_EQ(result.voxels_updated, result_by_blocks.voxels_updated) << "frame " << i;
     if ((i + 1) % check_every != 0 && i + 1 != poses.size()) continue;
     EsdfLayer expected(voxel_size);
     reference.recompute(tsdf, poses[i].position, expected);
@@ -712,6 +733,34 @@ void flyBenchmarkFlight(double voxel_size, size_t check_every) {
   // bytes) and the work lists of recent frames, not the first frame's occupied sphere.
   EXPECT_GT(integrator.memoryBytes(), esdf.memoryBytes() / 2);
   EXPECT_LE(integrator.memoryBytes(), 2 * esdf.memoryBytes());
+}
+
+// A report made for another weight than min_weight may miss voxels whose observed-ness changed
+// at min_weight: the integrator classifies the whole changed blocks again. Here the reports name
+// no voxel at all, for weight 0.5, and the layer still equals a recompute at every frame.
+TEST(EsdfIntegrator, AReportForAnotherWeightFallsBackToTheWholeBlocks) {
+  const std::vector<thicket::Pose> poses = thicket::bench::flightPoses(0.25, 8);
+  const thicket::sim::DepthRenderer renderer(thicket::bench::forest(),
+                                             thicket::sim::DepthCameraOptions{});
+  const thicket::mapper::TsdfIntegrator tsdf_integrator{thicket::mapper::TsdfIntegratorOptions{}};
+  EsdfIntegrator integrator{EsdfIntegratorOptions{}};
+  integrator.setInitialPosition(poses.front().position);
+  EsdfIntegrator reference{EsdfIntegratorOptions{}};
+  reference.setInitialPosition(poses.front().position);
+  TsdfLayer tsdf(0.2);
+  EsdfLayer esdf(0.2);
+  int64_t utime = 0;
+  for (const thicket::Pose& pose : poses) {
+    const thicket::DepthImage image = renderer.renderImage(pose, utime += 250'000);
+    thicket::mapper::TsdfIntegrationResult report =
+        tsdf_integrator.integrate(image, pose * renderer.cameraInBody(), tsdf);
+    report.observed_weight = 0.5f;
+    std::fill(report.changed_voxels.begin(), report.changed_voxels.end(), thicket::BlockVoxels{});
+    integrator.update(tsdf, report, pose.position, esdf);
+    EsdfLayer expected(0.2);
+    reference.recompute(tsdf, pose.position, expected);
+    EXPECT_TRUE(sameEsdf(esdf, expected, 1e-5));
+  }
 }
 
 TEST(EsdfIntegrator, IncrementalEqualsRecomputeOnBenchmarkFlightAt20cm) {

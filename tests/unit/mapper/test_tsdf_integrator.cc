@@ -1,6 +1,7 @@
 #include "thicket/mapper/tsdf_integrator.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -565,6 +566,54 @@ TEST_P(TsdfIntegratorTest, DeterministicWithExactChangedBlocks) {
   ASSERT_EQ(first.blockIndices(), second.blockIndices());
   for (const BlockIndex& b : first.blockIndices()) {
     EXPECT_TRUE(sameVoxels(*first.block(b), *second.block(b))) << "block " << b.transpose();
+  }
+}
+
+// changed_voxels names, per changed block, exactly the voxels whose distance changed bit for bit
+// or whose weight crossed observed_weight (here one that voxels seen from beyond 3.2 m cross on
+// their second or third frame): what the ESDF classifies again. With and without carving.
+TEST_P(TsdfIntegratorTest, ReportsTheVoxelsWhoseDistanceOrObservednessChanged) {
+  const std::vector<Frame> frames = forestFrames(4);
+  for (const bool carve : {true, false}) {
+    if (!carve && method() == Method::kRaycast) continue;
+    TsdfIntegratorOptions options;
+    options.method = method();
+    options.carve_free_space = carve;
+    options.observed_weight = 0.1;
+    const TsdfIntegrator integrator(options);
+    TsdfLayer layer(voxelSize());
+    int64_t crossings = 0;
+    int64_t reported = 0;
+    for (const Frame& frame : frames) {
+      const Snapshot before = snapshot(layer);
+      const TsdfIntegrationResult result =
+          integrator.integrate(frame.image, frame.world_T_camera, layer);
+      EXPECT_EQ(result.observed_weight, 0.1f);
+      ASSERT_EQ(result.changed_voxels.size(), result.changed_blocks.size());
+      for (size_t k = 0; k < result.changed_blocks.size(); ++k) {
+        const BlockIndex& b = result.changed_blocks[k];
+        const auto old = before.find(std::tuple{b.x(), b.y(), b.z()});
+        const TsdfLayer::BlockType empty(b);
+        const auto& was = old != before.end() ? old->second.voxels : empty.voxels;
+        const auto& is = layer.block(b)->voxels;
+        BlockVoxels expected;
+        for (int i = 0; i < kVoxelsPerBlock; ++i) {
+          const bool crossed = (was[i].weight >= 0.1f) != (is[i].weight >= 0.1f);
+          crossings += crossed && std::bit_cast<uint32_t>(was[i].distance) ==
+                                      std::bit_cast<uint32_t>(is[i].distance);
+          if (crossed ||
+              std::bit_cast<uint32_t>(was[i].distance) != std::bit_cast<uint32_t>(is[i].distance)) {
+            expected.insert(i);
+            ++reported;
+          }
+        }
+        EXPECT_TRUE(result.changed_voxels[k] == expected)
+            << "block " << b.transpose() << (carve ? "" : " without carving");
+      }
+    }
+    EXPECT_GT(reported, 0);
+    // Some voxels are reported for their weight alone (free space at the truncation).
+    EXPECT_GT(crossings, 0) << (carve ? "" : "without carving");
   }
 }
 

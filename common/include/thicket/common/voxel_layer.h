@@ -25,6 +25,32 @@ constexpr int kVoxelsPerBlock = kVoxelsPerSide * kVoxelsPerSide * kVoxelsPerSide
 using BlockIndex = Eigen::Vector3i;
 using VoxelIndex = Eigen::Vector3i;  // global: the voxel's integer coordinates in the world
 
+/// A set of a block's voxels, a row along x at a time: bit x of rows[y + 16 z] for voxel (x, y, z)
+/// (local coordinates; the bit of linear index i is bit i % 16 of rows[i / 16]).
+struct BlockVoxels {
+  std::array<uint16_t, kVoxelsPerSide * kVoxelsPerSide> rows{};
+
+  static BlockVoxels all() {
+    BlockVoxels set;
+    set.rows.fill(0xffff);
+    return set;
+  }
+  void insert(int linear) {
+    rows[linear / kVoxelsPerSide] |= static_cast<uint16_t>(1u << (linear % kVoxelsPerSide));
+  }
+  bool contains(int linear) const {
+    return (rows[linear / kVoxelsPerSide] >> (linear % kVoxelsPerSide) & 1) != 0;
+  }
+  bool empty() const {
+    return std::all_of(rows.begin(), rows.end(), [](uint16_t row) { return row == 0; });
+  }
+  BlockVoxels& operator|=(const BlockVoxels& other) {
+    for (size_t r = 0; r < rows.size(); ++r) rows[r] |= other.rows[r];
+    return *this;
+  }
+  bool operator==(const BlockVoxels&) const = default;
+};
+
 struct IndexHash {
   size_t operator()(const Eigen::Vector3i& i) const {
     // Large odd multipliers spread neighbouring indices over the buckets.

@@ -1,6 +1,6 @@
 // The incremental Euclidean signed distance field (docs/design.md §1, mapping): the TSDF blocks
-// that a depth frame changed, and the vehicle's position, in; the ESDF updated in place, and the
-// ESDF blocks that changed, out.
+// (or voxels) that a depth frame changed, and the vehicle's position, in; the ESDF updated in
+// place, and the ESDF blocks that changed, out.
 //
 // Every voxel gets a class from its TSDF voxel and two spheres ("unknown space is occupied"):
 //   - observed (TSDF weight >= min_weight, distance not NaN; compared as floats) with
@@ -32,6 +32,7 @@
 
 #include "thicket/common/params.h"
 #include "thicket/common/voxel_layer.h"
+#include "thicket/mapper/tsdf_integrator.h"
 
 namespace thicket::mapper {
 
@@ -94,6 +95,15 @@ class EsdfIntegrator {
   /// farther than 1e6 m from the origin; the layer is unchanged when it throws so. Throws
   /// std::length_error beyond 2^20 ESDF blocks (the next call then recomputes).
   EsdfUpdateResult update(const TsdfLayer& tsdf, const std::vector<BlockIndex>& changed_tsdf_blocks,
+                          const Eigen::Vector3d& current_position, EsdfLayer& esdf);
+
+  /// The same, from the integration of the one frame since the last call: only the voxels it
+  /// reports (changed_voxels) and their face neighbours are classified again, not the whole
+  /// changed blocks; the result is the same. The whole blocks are classified again where the
+  /// report was made for another weight than min_weight, and where a block is no longer in the
+  /// TSDF. Throws std::invalid_argument, the layer unchanged, when the report does not have a
+  /// voxel set per changed block; otherwise as above.
+  EsdfUpdateResult update(const TsdfLayer& tsdf, const TsdfIntegrationResult& integration,
                           const Eigen::Vector3d& current_position, EsdfLayer& esdf);
 
   /// The integrator's own memory [bytes]: its per-block wavefront state (each voxel's class,

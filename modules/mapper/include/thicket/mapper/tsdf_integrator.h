@@ -1,5 +1,6 @@
 // TSDF integration (docs/design.md §1, mapping): one depth image and the camera pose in, updated
-// voxels and the blocks that changed out, so that the ESDF can be updated incrementally from them.
+// voxels and the blocks and voxels that changed out, so that the ESDF can be updated incrementally
+// from them.
 //
 // Both integrators apply the same per-voxel rule. A return at depth z (optical-frame z [m]) gives
 // the voxels along its line of sight sdf = measured - voxel distance, clamped to
@@ -78,6 +79,10 @@ struct TsdfIntegratorOptions {
   /// 1 m deep behind its visible face, such as the simulator's dynamic obstacle; one thinner than
   /// the probes (three voxels) draws no shadow.
   double new_surface_shadow = 1.0;
+  /// Voxels with less weight count as unobserved downstream, as the ESDF's min_weight (the
+  /// mapper sets it from there): changed_voxels reports the voxels whose weight crosses it. Not
+  /// a parameter of its own.
+  double observed_weight = 1e-6;
 
   void declare(Params& p);
 };
@@ -86,6 +91,11 @@ struct TsdfIntegrationResult {
   /// Every block with a voxel whose distance or weight changed (newly allocated ones included),
   /// sorted with indexLess, without duplicates.
   std::vector<BlockIndex> changed_blocks;
+  /// For each of changed_blocks, the voxels that changed in what the ESDF reads: the distance
+  /// (bit for bit), or whether the weight reaches observed_weight.
+  std::vector<BlockVoxels> changed_voxels;
+  /// The options' observed_weight, as the float the voxels' weights are compared with.
+  float observed_weight = 0;
   /// Voxel updates applied; the ray caster counts a voxel once per ray that updates it.
   int64_t voxels_updated = 0;
 };
