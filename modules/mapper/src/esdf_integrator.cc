@@ -9,7 +9,7 @@
 #include <string>
 #include <unordered_map>
 
-#include "monotone_queue.h"
+#include "bucket_queue.h"
 
 namespace thicket::mapper {
 namespace {
@@ -467,7 +467,8 @@ class EsdfIntegrator::Impl {
     clearList(raise_);
     clearList(seeds_);
     clearList(tentative_);
-    queue_.clear();
+    // Buckets of half a voxel: narrower than every edge, so each voxel leaves the queue final.
+    queue_.reset(0.5f * voxel_size_f_, max_);
     clearList(changed_nodes_);
     clearList(work_);
     clearList(work_sets_);
@@ -750,10 +751,9 @@ class EsdfIntegrator::Impl {
     }
   }
 
-  // Queues a free or inside voxel with its value. Values are never negative, so their bits order
-  // them as the floats do.
+  // Queues a free or inside voxel with its value (in [0, max_distance]).
   void push(float value, BlockNode* node, int lin) {
-    queue_.push(std::bit_cast<uint32_t>(value), node->id << 12 | static_cast<uint32_t>(lin));
+    queue_.push(value, node->id << 12 | static_cast<uint32_t>(lin));
   }
 
   // Offers a free or inside voxel a path of length `candidate` (not negative) through the
@@ -861,9 +861,8 @@ class EsdfIntegrator::Impl {
     }
     // Dijkstra: a voxel leaves the queue with its final value and passes it on.
     while (!queue_.empty()) {
-      uint32_t key;
-      const uint32_t voxel = queue_.pop(key);
-      const float value = std::bit_cast<float>(key);
+      float value;
+      const uint32_t voxel = queue_.pop(value);
       BlockNode* node = by_id_[voxel >> 12];
       const int lin = static_cast<int>(voxel & 4095);
       if (node->value[lin] != value) continue;  // lowered again since
@@ -955,7 +954,7 @@ class EsdfIntegrator::Impl {
   std::vector<VoxelRef> raise_;
   std::vector<VoxelRef> seeds_;
   std::vector<VoxelRef> tentative_;
-  MonotoneQueue queue_;
+  BucketQueue queue_;
   std::vector<BlockNode*> changed_nodes_;
   struct Work {
     BlockIndex block;
