@@ -37,23 +37,43 @@ uint8_t sideOf(uint8_t cls) {
   return cls == kFree ? kRaiseFree : cls == kInside ? kRaiseInside : 0;
 }
 
-// The 26 neighbour offsets, z slowest and x fastest, (0, 0, 0) left out: so the opposite of
-// direction d is 25 - d.
+// The 26 neighbour directions, z slowest and x fastest, (0, 0, 0) left out: so the opposite of
+// direction d is 25 - d. A voxel's neighbours depend on where it lies in its block along each
+// axis (0: the first layer, 1: between, 2: the last), its class x + 3 y + 9 z: per class and
+// direction, the neighbour's block as a slot in BlockNode::neighbours (13: the voxel's own) and
+// its offset from the voxel's linear index into that block.
 struct Neighbourhood {
-  std::array<int, 26> linear{};  // the offset in a block's array, for voxels off its faces
-  std::array<int, 26> steps{};   // non-zero components: the edge is sqrt(steps) voxels long
+  std::array<int, 26> steps{};  // non-zero components: the edge is sqrt(steps) voxels long
+  std::array<std::array<uint8_t, 26>, 27> slot{};
+  std::array<std::array<int16_t, 26>, 27> offset{};
 };
 
 constexpr Neighbourhood makeNeighbourhood() {
   Neighbourhood n;
-  int d = 0;
-  for (int z = -1; z <= 1; ++z) {
-    for (int y = -1; y <= 1; ++y) {
-      for (int x = -1; x <= 1; ++x) {
-        if (x == 0 && y == 0 && z == 0) continue;
-        n.linear[d] = x + kVoxelsPerSide * y + kVoxelsPerSide * kVoxelsPerSide * z;
-        n.steps[d] = (x != 0) + (y != 0) + (z != 0);
-        ++d;
+  for (int c = 0; c < 27; ++c) {
+    const int where[3] = {c % 3, c / 3 % 3, c / 9};
+    int d = 0;
+    for (int z = -1; z <= 1; ++z) {
+      for (int y = -1; y <= 1; ++y) {
+        for (int x = -1; x <= 1; ++x) {
+          if (x == 0 && y == 0 && z == 0) continue;
+          const int step[3] = {x, y, z};
+          int slot = 0;
+          int offset = 0;
+          for (int a = 0, slot_stride = 1, stride = 1; a < 3;
+               ++a, slot_stride *= 3, stride *= kVoxelsPerSide) {
+            // Off the first layer backwards or the last forwards: the next block, wrapped.
+            const int block = (where[a] == 0 && step[a] < 0)   ? -1
+                              : (where[a] == 2 && step[a] > 0) ? 1
+                                                               : 0;
+            slot += (block + 1) * slot_stride;
+            offset += (step[a] - block * kVoxelsPerSide) * stride;
+          }
+          n.steps[d] = (x != 0) + (y != 0) + (z != 0);
+          n.slot[c][d] = static_cast<uint8_t>(slot);
+          n.offset[c][d] = static_cast<int16_t>(offset);
+          ++d;
+        }
       }
     }
   }
@@ -155,39 +175,13 @@ inline bool nearPropagating(const BlockNode* node, int lin) {
 // not allocated).
 template <class F>
 inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
-  const int x = lin & 15;
-  const int y = (lin >> 4) & 15;
-  const int z = lin >> 8;
-  if (interior(x, y, z)) {
-    for (int d = 0; d < 26; ++d) f(d, node, lin + kNeighbours.linear[d]);
-    return;
-  }
-  // Per axis and offset -1, 0, 1: the neighbouring block's slot in BlockNode::neighbours and the
-  // coordinate in it, both scaled by the axis' stride. (n + 16) >> 4 maps -1, 0..15, 16 to 0, 1, 2.
-  int slot[3][3];
-  int local[3][3];
-  const int coordinate[3] = {x, y, z};
-  constexpr int kSlotStride[3] = {1, 3, 9};
-  for (int a = 0; a < 3; ++a) {
-    for (int o = 0; o < 3; ++o) {
-      const int n = coordinate[a] + o - 1;
-      slot[a][o] = ((n + 16) >> 4) * kSlotStride[a];
-      local[a][o] = (n & 15) * kStride[a];
-    }
-  }
-  int d = 0;
-#pragma GCC unroll 3
-  for (int k = 0; k < 3; ++k) {
-#pragma GCC unroll 3
-    for (int j = 0; j < 3; ++j) {
-#pragma GCC unroll 3
-      for (int i = 0; i < 3; ++i) {
-        if (i == 1 && j == 1 && k == 1) continue;
-        f(d++, node->neighbours[slot[0][i] + slot[1][j] + slot[2][k]],
-          local[0][i] + local[1][j] + local[2][k]);
-      }
-    }
-  }
+  const auto where = [](int coordinate) {
+    return (coordinate != 0) + (coordinate == kVoxelsPerSide - 1);
+  };
+  const int c = where(lin & 15) + 3 * where((lin >> 4) & 15) + 9 * where(lin >> 8);
+  const std::array<uint8_t, 26>& slot = kNeighbours.slot[c];
+  const std::array<int16_t, 26>& offset = kNeighbours.offset[c];
+  for (int d = 0; d < 26; ++d) f(d, node->neighbours[slot[d]], lin + offset[d]);
 }
 
 constexpr int kLast = kVoxelsPerSide - 1;
