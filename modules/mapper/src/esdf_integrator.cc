@@ -4,6 +4,7 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -80,6 +81,44 @@ constexpr Neighbourhood makeNeighbourhood() {
   return n;
 }
 constexpr Neighbourhood kNeighbours = makeNeighbourhood();
+
+// Per row of three neighbours, each lane's direction (-1: the voxel itself, or the fourth lane),
+// and the parent byte a neighbour has when the voxel is its parent, 25 - direction, four to a
+// word (0xFF, which no parent byte holds, for the voxel itself and the fourth lane).
+constexpr std::array<std::array<int, 4>, 9> kRowDirections = [] {
+  std::array<std::array<int, 4>, 9> directions{};
+  for (int row = 0, d = 0; row < 9; ++row) {
+    for (int lane = 0; lane < 4; ++lane) {
+      directions[row][lane] = lane == 3 || (row == 4 && lane == 1) ? -1 : d++;
+    }
+  }
+  return directions;
+}();
+constexpr std::array<uint32_t, 9> kRowParents = [] {
+  std::array<uint32_t, 9> words{};
+  for (int row = 0; row < 9; ++row) {
+    for (int lane = 0; lane < 4; ++lane) {
+      const int d = kRowDirections[row][lane];
+      words[row] |= static_cast<uint32_t>(d < 0 ? 0xFF : 25 - d) << (8 * lane);
+    }
+  }
+  return words;
+}();
+
+// Four floats, and four comparison results, compared lane by lane (GCC vector extensions).
+using Floats4 = float __attribute__((vector_size(16)));
+using Ints4 = int32_t __attribute__((vector_size(16)));
+
+// From an interior voxel's index, the first of each row of three neighbours (x - 1, y + dy,
+// z + dz), rows in direction order (dz slowest).
+constexpr std::array<int, 9> kRowStarts = [] {
+  std::array<int, 9> starts{};
+  for (int dz = -1, row = 0; dz <= 1; ++dz) {
+    for (int dy = -1; dy <= 1; ++dy)
+      starts[row++] = -1 + kVoxelsPerSide * (dy + kVoxelsPerSide * dz);
+  }
+  return starts;
+}();
 
 double square(double x) {
   return x * x;
@@ -171,14 +210,21 @@ inline bool nearPropagating(const BlockNode* node, int lin) {
   return false;
 }
 
+// The position class of voxel lin in its block (see Neighbourhood); kInterior: all its
+// neighbours are in the block.
+inline int positionClass(int lin) {
+  const auto where = [](int coordinate) {
+    return (coordinate != 0) + (coordinate == kVoxelsPerSide - 1);
+  };
+  return where(lin & 15) + 3 * where((lin >> 4) & 15) + 9 * where(lin >> 8);
+}
+constexpr int kInterior = 13;
+
 // Calls f(direction, node, linear index) for each neighbour (in the empty stand-in if its block is
 // not allocated).
 template <class F>
 inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
-  const auto where = [](int coordinate) {
-    return (coordinate != 0) + (coordinate == kVoxelsPerSide - 1);
-  };
-  const int c = where(lin & 15) + 3 * where((lin >> 4) & 15) + 9 * where(lin >> 8);
+  const int c = positionClass(lin);
   const std::array<uint8_t, 26>& slot = kNeighbours.slot[c];
   const std::array<int16_t, 26>& offset = kNeighbours.offset[c];
   for (int d = 0; d < 26; ++d) f(d, node->neighbours[slot[d]], lin + offset[d]);
@@ -398,6 +444,14 @@ class EsdfIntegrator::Impl {
     for (int d = 0; d < 26; ++d) {
       edge_[d] =
           static_cast<float>(voxel_size_ * std::sqrt(static_cast<double>(kNeighbours.steps[d])));
+    }
+    // Per row of three neighbours (x - 1, x, x + 1), its edges; the voxel itself and a fourth
+    // lane, read along, at infinity: never shorter.
+    for (int row = 0; row < 9; ++row) {
+      for (int lane = 0; lane < 4; ++lane) {
+        const int d = kRowDirections[row][lane];
+        row_edges_[row][lane] = d < 0 ? std::numeric_limits<float>::infinity() : edge_[d];
+      }
     }
     position_ = position;
     beginCall();
@@ -763,6 +817,46 @@ class EsdfIntegrator::Impl {
     push(candidate, node, lin);
   }
 
+  // Dijkstra's offers from voxel lin, all of whose neighbours are in its block, to those of class
+  // cls: the same offers in the same order as one by one, but a row of three neighbours is
+  // compared at once, since few offers succeed (under 4 %).
+  void offerToInteriorNeighbours(BlockNode* node, int lin, float value, uint8_t cls) {
+    const Floats4 from = {value, value, value, value};
+    for (int row = 0; row < 9; ++row) {
+      const int first = lin + kRowStarts[row];
+      Floats4 neighbours;
+      std::memcpy(&neighbours, &node->value[first], sizeof(neighbours));
+      const Floats4 candidates = from + row_edges_[row];
+      const Ints4 shorter = candidates < neighbours;
+      if ((shorter[0] | shorter[1] | shorter[2]) == 0) continue;
+      for (int lane = 0; lane < 3; ++lane) {
+        if (shorter[lane] != 0 && (node->state[first + lane] & kClassMask) == cls) {
+          lower(node, first + lane, candidates[lane], 25 - kRowDirections[row][lane]);
+        }
+      }
+    }
+  }
+
+  // raiseChild for each child of voxel r, all of whose neighbours are in its block, in direction
+  // order as one by one, but a row of three neighbours' parents is compared at once (four bytes
+  // in a word), since most voxels are no child of r.
+  void raiseInteriorChildren(const VoxelRef& r, float source) {
+    for (int row = 0; row < 9; ++row) {
+      const int first = r.lin + kRowStarts[row];
+      uint32_t parents;
+      std::memcpy(&parents, &r.node->parent[first], sizeof(parents));
+      // Zero bytes where a neighbour's parent is r: the classic test for a zero byte in a word
+      // can flag a byte above a real zero too, never miss one; the lanes are checked below.
+      const uint32_t x = parents ^ kRowParents[row];
+      if (((x - 0x01010101u) & ~x & 0x80808080u) == 0) continue;
+      for (int lane = 0; lane < 3; ++lane) {
+        if ((x >> (8 * lane) & 0xFF) == 0) {
+          raiseChild(r, kRowDirections[row][lane], r.node, first + lane, source);
+        }
+      }
+    }
+  }
+
   // Invalidates child n of raised voxel r, in direction d from r, or re-evaluates it from r's
   // value as a source (`source`).
   void raiseChild(const VoxelRef& r, int d, BlockNode* n, int l, float source) {
@@ -806,9 +900,13 @@ class EsdfIntegrator::Impl {
         });
       } else {
         // Only free and inside voxels have parents, and a child is on its parent's side.
-        forEachNeighbour(r.node, r.lin, [&](int d, BlockNode* n, int l) {
-          if (n->parent[l] == 25 - d) raiseChild(r, d, n, l, from_value);
-        });
+        if (positionClass(r.lin) == kInterior) {
+          raiseInteriorChildren(r, from_value);
+        } else {
+          forEachNeighbour(r.node, r.lin, [&](int d, BlockNode* n, int l) {
+            if (n->parent[l] == 25 - d) raiseChild(r, d, n, l, from_value);
+          });
+        }
       }
     }
     // Lower, seeded by the other new sites...
@@ -861,6 +959,10 @@ class EsdfIntegrator::Impl {
       const int lin = static_cast<int>(voxel & 4095);
       if (node->value[lin] != value) continue;  // lowered again since
       const uint8_t cls = node->state[lin] & kClassMask;
+      if (positionClass(lin) == kInterior) {
+        offerToInteriorNeighbours(node, lin, value, cls);
+        continue;
+      }
       forEachNeighbour(node, lin, [&](int d, BlockNode* n, int l) {
         if ((n->state[l] & kClassMask) == cls) offer(n, l, value + edge_[d], 25 - d);
       });
@@ -931,6 +1033,7 @@ class EsdfIntegrator::Impl {
   double rc2_ = 0;
   double ro2_ = 0;
   std::array<float, 26> edge_{};
+  std::array<Floats4, 9> row_edges_{};
 
   bool has_initial_ = false;
   Eigen::Vector3d initial_ = Eigen::Vector3d::Zero();
