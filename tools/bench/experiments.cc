@@ -187,6 +187,12 @@ void addExperimentFlags(CLI::App& app, ExperimentOptions& o) {
   app.add_option("--worlds-dir", o.worlds_dir, "where scenario names are looked up")
       ->check(nonEmpty())
       ->capture_default_str();
+  app.add_option(
+         "--config", o.config_dir,
+         "every trial's graph options, DIR/<module>.yaml as for thicket-bench run (default: "
+         "config/sim; config/sim_coarse flies 0.2 m voxels); a folder's rows are one "
+         "configuration's: give another --out")
+      ->check(nonEmpty());
 }
 
 constexpr const char* kExperimentHelp =
@@ -212,6 +218,7 @@ constexpr const char* kMergeHelp =
 Expected<ExperimentOptions> parseExperimentOptions(const std::vector<std::string>& args) {
   ExperimentOptions options;
   options.worlds_dir = std::string(THICKET_SOURCE_DIR) + "/config/worlds";
+  options.config_dir = simConfigDir();
   options.jobs = onlineCpus();
   auto parsed = parseCommand<ExperimentOptions>("experiment", kExperimentHelp, args,
                                                 addExperimentFlags, options);
@@ -267,6 +274,7 @@ Row flyTrial(const TrialSpec& spec, const FlyContext& context) {
   run.replans = spec.replans;
   run.dynamic_obstacle = spec.dynamic_obstacle;
   run.worlds_dir = context.options.worlds_dir;
+  run.config_dir = context.options.config_dir;
   run.out = context.options.out;
   const std::string key = spec.key();
   try {
@@ -366,6 +374,17 @@ int experimentCommand(const std::vector<std::string>& args) {
   for (const std::string& scenario : scenarios) {
     if (auto spec = sim::loadScenario(scenario, options.worlds_dir); !spec) {
       return usageError(command, spec.error() + " (--worlds-dir " + options.worlds_dir + ")");
+    }
+  }
+  // A configuration that does not load is the user's to fix, before any trial flies.
+  if (!list.empty()) {
+    try {
+      const TrialSpec& first = list.front();
+      const auto world = sim::loadScenario(first.scenario, options.worlds_dir);
+      trialGraphOptions(first.method, first.goal_finding, 0, Eigen::Vector3d::Zero(), world->size,
+                        world->robot_radius, options.config_dir);
+    } catch (const std::exception& e) {
+      return usageError(command, e.what());
     }
   }
   std::optional<std::regex> record;

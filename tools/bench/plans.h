@@ -51,6 +51,7 @@ struct ExperimentOptions {
   int shard_count = 1;
   std::string record;  ///< regex searched in trial keys; empty records nothing
   std::string worlds_dir;
+  std::string config_dir;  ///< the graph's option files (trials.h: RunOptions::config_dir)
   std::string out;
   std::string help;  ///< the --help text, when it was asked
 };

@@ -18,6 +18,7 @@
 
 #include "bench_tables.h"
 #include "cli.h"
+#include "config_copy.h"
 #include "csv.h"
 #include "experiments.h"
 #include "parallel.h"
@@ -463,6 +464,38 @@ TEST_F(BenchExperimentRun, RecordKeepsTheLogOfTheChosenTrials) {
   EXPECT_EQ(end->num_replans, std::stoi(row[13]));
   EXPECT_NEAR(end->path_length, std::stod(row[15]), 1e-4);
   EXPECT_NEAR(end->distance_to_goal, std::stod(row[14]), 1e-4);
+}
+
+// --config reaches every trial: a planner that demands 2 m of clearance (the start is 1.5 m above
+// the ground) reaches no goal, where the shipped configuration does on the same world; one that
+// does not load is refused before anything is written.
+TEST(BenchExperiment, ConfigChangesTheOptionsEveryTrialFlies) {
+  const std::string demanding =
+      thicket::testing::configCopy(tempDir("demanding"), "clearance_margin: 1.5");
+  const std::string selection =
+      "experiment --experiment E1 --density 0.05 --goal-finding soft --trials 1 --seed-base 7 "
+      "--replans 30 --jobs 1 --out ";
+  const std::string shipped = tempDir("config_shipped"), changed = tempDir("config_changed");
+  const CliResult first = bench(selection + shipped);
+  ASSERT_EQ(first.status, 0) << first.output;
+  const CliResult second = bench(selection + changed + " --config " + demanding);
+  ASSERT_EQ(second.status, 0) << second.output;
+  const auto success = [](const std::string& dir) {
+    const Table table = readTable(dir + "/trials.csv");
+    EXPECT_EQ(table.size(), 2u) << dir;
+    if (table.size() != 2) return std::string();
+    const auto column = std::find(table[0].begin(), table[0].end(), "success");
+    EXPECT_NE(column, table[0].end());
+    return column == table[0].end() ? std::string() : table[1][column - table[0].begin()];
+  };
+  EXPECT_EQ(success(shipped), "1");
+  EXPECT_EQ(success(changed), "0");
+
+  const std::string refused = tempDir("config_refused");
+  const CliResult bad = bench(selection + refused + " --config " + tempDir("no_config"));
+  EXPECT_EQ(bad.status, 2) << bad.output;
+  EXPECT_NE(bad.output.find("vio_bridge.yaml"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(refused));
 }
 
 TEST(BenchExperiment, ATrialThatCouldNotRunIsRecordedAndTriedAgain) {

@@ -14,12 +14,14 @@
 #include <gtest/gtest.h>
 
 #include "cli.h"
+#include "config_copy.h"
 #include "thicket/sim/world.h"
 
 namespace thicket::bench {
 namespace {
 
 using thicket::testing::CliResult;
+using thicket::testing::configCopy;
 
 CliResult bench(const std::string& args) {
   return thicket::testing::runCommand(std::string(THICKET_BENCH) + " " + args);
@@ -27,31 +29,6 @@ CliResult bench(const std::string& args) {
 
 std::string tempDir(const std::string& name) {
   return ::testing::TempDir() + "/bench_run_" + std::to_string(::getpid()) + "_" + name;
-}
-
-// A copy of the shipped config/sim whose local_planner.yaml also sets planner.loco's
-// `loco_option` ("key: value").
-std::string configCopy(const std::string& name, const std::string& loco_option) {
-  const std::string source = std::string(THICKET_SOURCE_DIR) + "/config/sim";
-  const std::string dir = tempDir(name);
-  std::filesystem::create_directories(dir);
-  for (const auto& entry : std::filesystem::directory_iterator(source))
-    std::filesystem::copy_file(entry.path(), dir + "/" + entry.path().filename().string());
-  std::ifstream shipped(source + "/local_planner.yaml");
-  std::stringstream text;
-  text << shipped.rdbuf();
-  std::string yaml = text.str();
-  // Into the shipped planner.loco block, or a new one.
-  const std::string block = "\nplanner:\n", loco = "\nplanner:\n  loco:\n";
-  const size_t planner = yaml.find(block);
-  EXPECT_NE(planner, std::string::npos) << "config/sim/local_planner.yaml has no planner block";
-  if (const size_t at = yaml.find(loco); at != std::string::npos) {
-    yaml.insert(at + loco.size(), "    " + loco_option + "\n");
-  } else if (planner != std::string::npos) {
-    yaml.insert(planner + block.size(), "  loco:\n    " + loco_option + "\n");
-  }
-  std::ofstream(dir + "/local_planner.yaml") << yaml;
-  return dir;
 }
 
 using Table = std::vector<std::vector<std::string>>;
@@ -194,7 +171,7 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
 // 1.5 m above the ground) accepts no trajectory, where the shipped configuration reaches the goal
 // of the same world.
 TEST(BenchRun, ConfigChangesTheOptionsTheGraphFlies) {
-  const std::string demanding = configCopy("demanding", "clearance_margin: 1.5");
+  const std::string demanding = configCopy(tempDir("demanding"), "clearance_margin: 1.5");
   const std::string shipped = tempDir("shipped"), changed = tempDir("changed");
   const std::string common = "run --density 0.05 --trials 1 --seed-base 7 --replans 30 --out ";
   const CliResult first = bench(common + shipped);
@@ -235,7 +212,7 @@ TEST(BenchRun, BadFlagsFailWithAMessage) {
   fails("--density 0.05 --trials 2 --scenario nowhere" + out, "nowhere");
   fails("--density 0.05 --trials 2 --config /nonexistent/sim" + out,
         "/nonexistent/sim/vio_bridge.yaml: cannot open");
-  const std::string bad = configCopy("bad_config", "clearance_margin: -1");
+  const std::string bad = configCopy(tempDir("bad_config"), "clearance_margin: -1");
   fails("--density 0.05 --trials 2 --config " + bad + out, "clearance_margin");
   std::filesystem::remove_all(bad);
   EXPECT_FALSE(std::filesystem::exists(tempDir("refused")));
