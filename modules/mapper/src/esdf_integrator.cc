@@ -362,13 +362,10 @@ class EsdfIntegrator::Impl {
       const TsdfStar star(tsdf, b);
       BlockNode* node = find(b);
       // Without either, every voxel was unknown and stays so, except where the occupied sphere
-      // arrived, which sphereDifference handles.
+      // arrived, which sphereMoved handles.
       if (star.centre() != nullptr || node != nullptr) classifyVoxels(b, star, node, voxels);
     }
-    if (previous != position) {
-      sphereDifference(tsdf, previous, position);
-      sphereDifference(tsdf, position, previous);
-    }
+    if (previous != position) sphereMoved(tsdf, previous);
     propagate(/*incremental=*/true);
     EsdfUpdateResult result = finish(esdf);
     built_ = true;
@@ -743,34 +740,42 @@ class EsdfIntegrator::Impl {
     }
   }
 
-  // Reclassifies the voxels in the occupied sphere around a but not in the one around b: those
-  // that left it (a = the previous position) or entered it (a = the current one).
-  void sphereDifference(const TsdfLayer& tsdf, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  // Reclassifies the voxels that left the occupied sphere (around `previous`) or entered it
+  // (around position_), in one pass over the rows through either sphere.
+  void sphereMoved(const TsdfLayer& tsdf, const Eigen::Vector3d& previous) {
+    const Eigen::Vector3d& current = position_;
     const double reach = options_.occupied_radius + voxel_size_;
-    const BlockIndex lo = blockOfVoxel(voxelOf((a.array() - reach).matrix()));
-    const BlockIndex hi = blockOfVoxel(voxelOf((a.array() + reach).matrix()));
+    const BlockIndex lo =
+        blockOfVoxel(voxelOf((previous.cwiseMin(current).array() - reach).matrix()));
+    const BlockIndex hi =
+        blockOfVoxel(voxelOf((previous.cwiseMax(current).array() + reach).matrix()));
     const int width = hi.x() - lo.x() + 1;
+    // The rows y0..y1 through a sphere's disc at height z (one voxel wider against rounding;
+    // rowSpan decides), or none.
+    auto rows = [&](const Eigen::Vector3d& p, int z, int& y0, int& y1) {
+      const double dz2 = square(centre(z, voxel_size_) - p.z());
+      if (!(dz2 <= ro2_)) return;
+      const double h = std::sqrt(ro2_ - dz2);
+      y0 = std::min(y0, static_cast<int>(std::floor((p.y() - h) / voxel_size_)) - 1);
+      y1 = std::max(y1, static_cast<int>(std::floor((p.y() + h) / voxel_size_)) + 1);
+    };
     for (int bz = lo.z(); bz <= hi.z(); ++bz) {
       for (int by = lo.y(); by <= hi.y(); ++by) {
         // The blocks along x, looked up once for their 256 rows of voxels.
         bool looked_up = false;
         for (int z = kVoxelsPerSide * bz; z < kVoxelsPerSide * (bz + 1); ++z) {
-          // Only rows through the sphere's disc at this z (one voxel wider against rounding;
-          // rowSpan decides).
-          const double dz2 = square(centre(z, voxel_size_) - a.z());
-          if (!(dz2 <= ro2_)) continue;
-          const double h = std::sqrt(ro2_ - dz2);
-          const int y0 = std::max(kVoxelsPerSide * by,
-                                  static_cast<int>(std::floor((a.y() - h) / voxel_size_)) - 1);
-          const int y1 = std::min(kVoxelsPerSide * (by + 1) - 1,
-                                  static_cast<int>(std::floor((a.y() + h) / voxel_size_)) + 1);
+          int y0 = std::numeric_limits<int>::max(), y1 = std::numeric_limits<int>::min();
+          rows(previous, z, y0, y1);
+          rows(current, z, y0, y1);
+          y0 = std::max(y0, kVoxelsPerSide * by);
+          y1 = std::min(y1, kVoxelsPerSide * (by + 1) - 1);
           for (int y = y0; y <= y1; ++y) {
-            const Span in_a = rowSpan(a, ro2_, y, z, voxel_size_);
-            if (in_a.empty()) continue;
-            const Span in_b = rowSpan(b, ro2_, y, z, voxel_size_);
-            if (in_b.lo <= in_a.lo && in_a.hi <= in_b.hi) continue;
+            const Span before = rowSpan(previous, ro2_, y, z, voxel_size_);
+            const Span now = rowSpan(current, ro2_, y, z, voxel_size_);
+            if ((before.empty() && now.empty()) || (before.lo == now.lo && before.hi == now.hi)) {
+              continue;
+            }
             const Span clear = rowSpan(initial_, rc2_, y, z, voxel_size_);
-            const Span& occupied = a == position_ ? in_a : in_b;
             if (!looked_up) {
               row_nodes_.resize(width);
               row_tsdf_.resize(width);
@@ -780,19 +785,21 @@ class EsdfIntegrator::Impl {
               }
               looked_up = true;
             }
-            forEachInDifference(in_a, in_b, [&](int x0, int x1) {
+            const auto reclassifyRange = [&](int x0, int x1) {
               for (int x = x0; x <= x1; ++x) {
                 const int i = (x >> 4) - lo.x();
                 const int lin = (x & 15) + kVoxelsPerSide * ((y & 15) + kVoxelsPerSide * (z & 15));
                 // Observed voxels do not depend on the spheres (and were classified with their
                 // block if it changed).
                 if (row_tsdf_[i] != nullptr && observed(&row_tsdf_[i]->voxels[lin])) continue;
-                const Classified c = unobservedClass(x, clear, occupied);
+                const Classified c = unobservedClass(x, clear, now);
                 if (!unchanged(row_nodes_[i], lin, c)) {
                   reclassify(row_nodes_[i], BlockIndex(lo.x() + i, by, bz), lin, c);
                 }
               }
-            });
+            };
+            forEachInDifference(before, now, reclassifyRange);  // left
+            forEachInDifference(now, before, reclassifyRange);  // entered
           }
         }
       }
