@@ -110,7 +110,8 @@ using Floats4 = float __attribute__((vector_size(16)));
 using Ints4 = int32_t __attribute__((vector_size(16)));
 
 // From an interior voxel's index, the first of each row of three neighbours (x - 1, y + dy,
-// z + dz), rows in direction order (dz slowest).
+// z + dz), rows in direction order (dz slowest). A row is read as four voxels: the fourth may lie
+// one past the block's last voxel, which BlockNode's arrays hold for that.
 constexpr std::array<int, 9> kRowStarts = [] {
   std::array<int, 9> starts{};
   for (int dz = -1, row = 0; dz <= 1; ++dz) {
@@ -176,10 +177,12 @@ struct BlockNode {
   int propagating = 0;  // free and inside voxels
   uint64_t changed_in_call = 0;
   EsdfLayer::BlockType* out = nullptr;  // valid while a call writes its changes out
+  // Per voxel, and one element more: a row of three neighbours is read as four at once, the
+  // fourth up to one past the last voxel (kRowStarts).
   // Sites: their distance; free and inside voxels: the magnitude; unknown: 0.
-  std::array<float, kVoxelsPerBlock> value{};
-  std::array<uint8_t, kVoxelsPerBlock> state{};  // class | kTouched
-  std::array<uint8_t, kVoxelsPerBlock> parent;   // direction to the parent, or kNoParent
+  std::array<float, kVoxelsPerBlock + 1> value{};
+  std::array<uint8_t, kVoxelsPerBlock + 1> state{};  // class | kTouched
+  std::array<uint8_t, kVoxelsPerBlock + 1> parent;   // direction to the parent, or kNoParent
 };
 
 struct Classified {
