@@ -342,15 +342,17 @@ class EsdfIntegrator::Impl {
   template <class Collect>
   EsdfUpdateResult incremental(const TsdfLayer& tsdf, const Eigen::Vector3d& position,
                                EsdfLayer& esdf, Collect&& collect) {
+    // Until the end, should anything throw (bad inputs, std::bad_alloc too): the next call then
+    // recomputes, so that no change the TSDF took is lost.
+    const bool built = built_;
+    built_ = false;
     checkInputs(tsdf, position, esdf);
-    if (!built_ || tsdf.voxelSize() != voxel_size_) return recompute(tsdf, position, esdf);
+    if (!built || tsdf.voxelSize() != voxel_size_) return recompute(tsdf, position, esdf);
     if (esdf.numBlocks() != nodes_.size()) {
       throw std::logic_error(
           "EsdfIntegrator::update: esdf is not the layer of the previous call (blocks differ)");
     }
     beginCall();
-    // Until the end, should anything throw (std::bad_alloc too): the next call then recomputes.
-    built_ = false;
     const Eigen::Vector3d previous = position_;
     position_ = position;
     collect();

@@ -142,7 +142,7 @@ std::vector<FrameOutcome> Mapper::integrateReady(std::vector<MapRevisionUpdate>&
       esdf = esdf_integrator_.update(tsdf_, tsdf, lookup.pose.position, esdf_);
     } catch (const std::exception& e) {
       // Never left pending to throw again with every later input. The TSDF took the frame; the
-      // ESDF misses its changes until they are observed again.
+      // ESDF's next update recomputes from the whole TSDF.
       outcomes.push_back(refuse(frame.utime, std::string("ESDF update failed: ") + e.what()));
       pending_.pop_front();
       continue;

@@ -92,22 +92,19 @@ class VoxelUpdater {
   }
 
  private:
-  // Stores a voxel's new values: the block changed if they differ, and the voxel is reported
-  // (TsdfIntegrationResult::changed_voxels) if its distance did, bit for bit, or whether its
-  // weight reaches observed_weight. (A distance that only changes the sign of a zero does not
-  // change the block, as before reports existed.)
+  // Stores a voxel's new values: the block changed if they differ (the distance bit for bit, so
+  // that a zero that changes sign counts too), and the voxel is reported
+  // (TsdfIntegrationResult::changed_voxels) if its distance did or whether its weight reaches
+  // observed_weight. Unchanged voxels are not written: their cache lines stay clean.
   void store(TsdfVoxel& voxel, float distance, float weight, Changes& changes) const {
-    const bool reported =
-        std::bit_cast<uint32_t>(distance) != std::bit_cast<uint32_t>(voxel.distance) ||
-        (weight >= observed_weight_) != (voxel.weight >= observed_weight_);
-    const bool differs = distance != voxel.distance || weight != voxel.weight;
-    changes.block |= differs;
-    changes.voxel |= reported;
-    // Unchanged voxels are not written: their cache lines stay clean.
-    if (differs || reported) {
-      voxel.distance = distance;
-      voxel.weight = weight;
-    }
+    const bool distance_changed =
+        std::bit_cast<uint32_t>(distance) != std::bit_cast<uint32_t>(voxel.distance);
+    if (!distance_changed && weight == voxel.weight) return;
+    changes.block = true;
+    changes.voxel |=
+        distance_changed || (weight >= observed_weight_) != (voxel.weight >= observed_weight_);
+    voxel.distance = distance;
+    voxel.weight = weight;
   }
 
   double voxel_size_;

@@ -763,6 +763,47 @@ TEST(EsdfIntegrator, AReportForAnotherWeightFallsBackToTheWholeBlocks) {
   }
 }
 
+// A saturated voxel whose stored distance is -0 (as a map loaded from elsewhere may hold) and that
+// a frame measures at +0 changes only the sign of its zero: that is still a change, of the block
+// and of the voxel, and the ESDF site it makes carries the new sign, as a recompute gives it.
+TEST(EsdfIntegrator, AZeroThatChangesSignIsAChange) {
+  using thicket::mapper::TsdfIntegrator;
+  using thicket::mapper::TsdfIntegratorOptions;
+  for (const auto method :
+       {TsdfIntegratorOptions::Method::kProjective, TsdfIntegratorOptions::Method::kRaycast}) {
+    const double vs = 0.125;
+    TsdfIntegratorOptions options;
+    options.method = method;
+    options.max_weight = 2.0;
+    const TsdfIntegrator tsdf_integrator(options);
+    thicket::DepthImage image;
+    image.camera = thicket::PinholeCamera{1, 1, 1.0, 1.0, 0.0, 0.0};
+    image.min_range = 0.05;
+    image.max_range = 20;
+    image.depth = {1.0625f};  // sdf +0 at voxel (0, 0, 8)
+    thicket::Pose pose;
+    pose.position = Eigen::Vector3d(0.5 * vs, 0.5 * vs, 0);
+    TsdfLayer tsdf(vs);
+    for (int i = 0; i < 100; ++i) tsdf_integrator.integrate(image, pose, tsdf);  // saturated
+    tsdf.block(BlockIndex(0, 0, 0))->voxels[8 * 256].distance = -0.0f;
+    EsdfIntegrator integrator{EsdfIntegratorOptions{}};
+    integrator.setInitialPosition(kFarAway);
+    EsdfLayer esdf(vs);
+    integrator.update(tsdf, kNoChange, kFarAway, esdf);
+    const auto report = tsdf_integrator.integrate(image, pose, tsdf);
+    ASSERT_EQ(report.changed_blocks, std::vector<BlockIndex>{BlockIndex(0, 0, 0)});
+    EXPECT_TRUE(report.changed_voxels.front().contains(8 * 256));
+    integrator.update(tsdf, report, kFarAway, esdf);
+    EsdfIntegrator reference{EsdfIntegratorOptions{}};
+    reference.setInitialPosition(kFarAway);
+    EsdfLayer expected(vs);
+    reference.recompute(tsdf, kFarAway, expected);
+    EXPECT_EQ(std::bit_cast<uint32_t>(esdf.voxel(VoxelIndex(0, 0, 8))->distance),
+              std::bit_cast<uint32_t>(expected.voxel(VoxelIndex(0, 0, 8))->distance));
+    EXPECT_EQ(std::bit_cast<uint32_t>(esdf.voxel(VoxelIndex(0, 0, 8))->distance), 0u);  // +0
+  }
+}
+
 TEST(EsdfIntegrator, IncrementalEqualsRecomputeOnBenchmarkFlightAt20cm) {
   flyBenchmarkFlight(0.2, 1);
 }

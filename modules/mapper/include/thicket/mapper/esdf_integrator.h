@@ -93,7 +93,8 @@ class EsdfIntegrator {
   /// size changed, recomputes from scratch. Throws std::logic_error before setInitialPosition(),
   /// std::invalid_argument if the layers' voxel sizes differ or the position is not finite or
   /// farther than 1e6 m from the origin; the layer is unchanged when it throws so. Throws
-  /// std::length_error beyond 2^20 ESDF blocks (the next call then recomputes).
+  /// std::length_error beyond 2^20 ESDF blocks. After any throw the next call recomputes, so
+  /// that no TSDF change is lost.
   EsdfUpdateResult update(const TsdfLayer& tsdf, const std::vector<BlockIndex>& changed_tsdf_blocks,
                           const Eigen::Vector3d& current_position, EsdfLayer& esdf);
 
