@@ -193,35 +193,29 @@ struct Classified {
 // A block's array stride along x, y and z.
 constexpr int kStride[3] = {1, kVoxelsPerSide, kVoxelsPerSide* kVoxelsPerSide};
 
-// Whether voxel (x, y, z) of a block has all 26 neighbours in the block.
-inline bool interior(int x, int y, int z) {
-  return static_cast<unsigned>(x - 1) < 14u && static_cast<unsigned>(y - 1) < 14u &&
-         static_cast<unsigned>(z - 1) < 14u;
-}
-
-// Whether a free or inside voxel may be among the neighbours of voxel lin: false skips the scan
-// of sites deep in unobserved space, which the moving occupied sphere creates and removes.
-inline bool nearPropagating(const BlockNode* node, int lin) {
-  if (node->propagating > 0) return true;
-  const int x = lin & 15;
-  const int y = (lin >> 4) & 15;
-  const int z = lin >> 8;
-  if (interior(x, y, z)) return false;
-  for (const BlockNode* other : node->neighbours) {
-    if (other->propagating > 0) return true;
-  }
-  return false;
-}
-
-// The position class of voxel lin in its block (see Neighbourhood); kInterior: all its
-// neighbours are in the block.
+// The position class of voxel lin in its block (see Neighbourhood).
 inline int positionClass(int lin) {
   const auto where = [](int coordinate) {
     return (coordinate != 0) + (coordinate == kVoxelsPerSide - 1);
   };
   return where(lin & 15) + 3 * where((lin >> 4) & 15) + 9 * where(lin >> 8);
 }
-constexpr int kInterior = 13;
+
+// Whether voxel lin has all 26 neighbours in its block (the class of the middle along every axis).
+inline bool interior(int lin) {
+  return positionClass(lin) == 13;
+}
+
+// Whether a free or inside voxel may be among the neighbours of voxel lin: false skips the scan
+// of sites deep in unobserved space, which the moving occupied sphere creates and removes.
+inline bool nearPropagating(const BlockNode* node, int lin) {
+  if (node->propagating > 0) return true;
+  if (interior(lin)) return false;
+  for (const BlockNode* other : node->neighbours) {
+    if (other->propagating > 0) return true;
+  }
+  return false;
+}
 
 // Calls f(direction, node, linear index) for each neighbour (in the empty stand-in if its block is
 // not allocated).
@@ -319,14 +313,15 @@ class EsdfIntegrator::Impl {
 
   EsdfUpdateResult update(const TsdfLayer& tsdf, const TsdfIntegrationResult& integration,
                           const Eigen::Vector3d& position, EsdfLayer& esdf) {
-    if (integration.changed_voxels.size() != integration.changed_blocks.size()) {
-      throw std::invalid_argument(
-          "EsdfIntegrator::update: the integration reports " +
-          std::to_string(integration.changed_voxels.size()) + " voxel sets for " +
-          std::to_string(integration.changed_blocks.size()) + " changed blocks");
-    }
     const bool reported = integration.observed_weight == min_weight_;
     return incremental(tsdf, position, esdf, [&] {
+      // Thrown here, the next call recomputes, as after any throw.
+      if (integration.changed_voxels.size() != integration.changed_blocks.size()) {
+        throw std::invalid_argument(
+            "EsdfIntegrator::update: the integration reports " +
+            std::to_string(integration.changed_voxels.size()) + " voxel sets for " +
+            std::to_string(integration.changed_blocks.size()) + " changed blocks");
+      }
       for (size_t i = 0; i < integration.changed_blocks.size(); ++i) {
         const BlockIndex& b = integration.changed_blocks[i];
         addWork(tsdf, b,
@@ -621,16 +616,15 @@ class EsdfIntegrator::Impl {
   // with no site between them, so the free side's distances came from sites far away.
   Classified classify(const TsdfStar& star, int x, int y, int z, int global_x, const Span& clear,
                       const Span& occupied) const {
-    const TsdfVoxel* t = star.centre() != nullptr
-                             ? &star.centre()->voxels[x + kVoxelsPerSide * (y + kVoxelsPerSide * z)]
-                             : nullptr;
+    const int lin = x + kVoxelsPerSide * (y + kVoxelsPerSide * z);
+    const TsdfVoxel* t = star.centre() != nullptr ? &star.centre()->voxels[lin] : nullptr;
     if (observed(t)) {
       const float d = t->distance;
       const float magnitude = std::abs(d);
       float site = magnitude <= band_ ? magnitude : kNoSite;
       if (options_.crossing_sites && magnitude > 0) {
         // Off the block's faces the neighbours are in the same block.
-        const bool inner = interior(x, y, z);
+        const bool inner = interior(lin);
         for (int face = 0; face < 6; ++face) {
           const int step = face % 2 ? 1 : -1;
           const TsdfVoxel* n =
@@ -912,7 +906,7 @@ class EsdfIntegrator::Impl {
         });
       } else {
         // Only free and inside voxels have parents, and a child is on its parent's side.
-        if (positionClass(r.lin) == kInterior) {
+        if (interior(r.lin)) {
           raiseInteriorChildren(r, from_value);
         } else {
           forEachNeighbour(r.node, r.lin, [&](int d, BlockNode* n, int l) {
@@ -971,7 +965,7 @@ class EsdfIntegrator::Impl {
       const int lin = static_cast<int>(voxel & 4095);
       if (node->value[lin] != value) continue;  // lowered again since
       const uint8_t cls = node->state[lin] & kClassMask;
-      if (positionClass(lin) == kInterior) {
+      if (interior(lin)) {
         offerToInteriorNeighbours(node, lin, value, cls);
         continue;
       }

@@ -600,6 +600,12 @@ TEST(EsdfIntegrator, RefusesBadInput) {
   report.observed_weight = static_cast<float>(EsdfIntegratorOptions{}.min_weight);
   EXPECT_THROW(integrator.update(tsdf, report, Eigen::Vector3d::Zero(), esdf),
                std::invalid_argument);
+  // After a throw the next call recomputes: a layer with a foreign block is rebuilt without it.
+  esdf.allocateBlock(BlockIndex(100, 0, 0));
+  const EsdfUpdateResult rebuilt =
+      integrator.update(tsdf, kNoChange, Eigen::Vector3d::Zero(), esdf);
+  EXPECT_EQ(rebuilt.removed_blocks, std::vector<BlockIndex>{BlockIndex(100, 0, 0)});
+  // A layer that is not the previous call's is refused.
   esdf.allocateBlock(BlockIndex(100, 0, 0));
   EXPECT_THROW(integrator.update(tsdf, kNoChange, Eigen::Vector3d::Zero(), esdf), std::logic_error);
 

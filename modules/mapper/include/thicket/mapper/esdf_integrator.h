@@ -102,8 +102,9 @@ class EsdfIntegrator {
   /// reports (changed_voxels) and their face neighbours are classified again, not the whole
   /// changed blocks; the result is the same. The whole blocks are classified again where the
   /// report was made for another weight than min_weight, and where a block is no longer in the
-  /// TSDF. Throws std::invalid_argument, the layer unchanged, when the report does not have a
-  /// voxel set per changed block; otherwise as above.
+  /// TSDF. Throws std::invalid_argument, the layer unchanged, when an incremental update gets a
+  /// report without a voxel set per changed block (a recompute reads no report); otherwise as
+  /// above.
   EsdfUpdateResult update(const TsdfLayer& tsdf, const TsdfIntegrationResult& integration,
                           const Eigen::Vector3d& current_position, EsdfLayer& esdf);
 
