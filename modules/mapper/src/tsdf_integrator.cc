@@ -224,7 +224,8 @@ std::vector<float> surfaceCosines(const DepthImage& image, const PixelRays& rays
   const auto valid = [&](double d) { return d >= image.min_range && d > 0 && d <= range; };
   // The neighbour on one axis whose depth is closest to the pixel's, so that a tangent is not
   // taken across an occluding edge when the other side continues the surface.
-  const auto tangent = [&](int u, int v, int du, int dv, Eigen::Vector3d& t) {
+  const auto tangent = [&](int u, int v, int du, int dv, Eigen::Vector3d& t)
+      __attribute__((always_inline)) {
     const double d = image.depth[static_cast<size_t>(v) * width + u];
     double best = kInf;
     for (const int sign : {-1, 1}) {
@@ -279,6 +280,15 @@ struct NewSurfaces {
   bool at(size_t pixel) const { return !pixels.empty() && pixels[pixel] != 0; }
 };
 
+// q * v as Eigen computes it (QuaternionBase::_transformVector), bit for bit, but always inlined:
+// GCC at -O2 leaves Eigen's out of line, a call per pixel.
+[[gnu::always_inline]] inline Eigen::Vector3d rotate(const Eigen::Quaterniond& q,
+                                                     const Eigen::Vector3d& v) {
+  Eigen::Vector3d uv = q.vec().cross(v);
+  uv += uv;
+  return v + q.w() * uv + q.vec().cross(uv);
+}
+
 NewSurfaces newSurfacePixels(const DepthImage& image, const PixelRays& rays,
                              const Pose& world_T_camera, const std::vector<float>& cosines,
                              const TsdfIntegratorOptions& options, const VoxelUpdater& updater,
@@ -291,7 +301,7 @@ NewSurfaces newSurfacePixels(const DepthImage& image, const PixelRays& rays,
   // Consecutive probes mostly land in one block: it is looked up only when that changes.
   BlockIndex cached_index = BlockIndex::Constant(std::numeric_limits<int>::min());
   const TsdfLayer::BlockType* cached = nullptr;
-  const auto clearlyFreeAt = [&](const Eigen::Vector3d& p) {
+  const auto clearlyFreeAt = [&](const Eigen::Vector3d& p) __attribute__((always_inline)) {
     const VoxelIndex voxel = layer.voxelIndex(p);
     const BlockIndex b = blockOfVoxel(voxel);
     if (b != cached_index) {
@@ -306,7 +316,7 @@ NewSurfaces newSurfacePixels(const DepthImage& image, const PixelRays& rays,
       const double depth = image.depth[i];
       if (!returnInRange(depth, image, options.max_integration_range)) continue;
       if (cosines[i] < kMinNewSurfaceCosine) continue;
-      const Eigen::Vector3d ray = world_T_camera.orientation * rays.at(u, v, 1.0);
+      const Eigen::Vector3d ray = rotate(world_T_camera.orientation, rays.at(u, v, 1.0));
       const Eigen::Vector3d hit = world_T_camera.position + depth * ray;
       // Most returns end in a voxel that is not clearly free: the probes behind it wait.
       bool stale = clearlyFreeAt(hit);
@@ -611,6 +621,49 @@ class SurfaceBlocks {
   BlockIndex last_last_ = last_first_;
 };
 
+// Each voxel of a block's row: the row and column of its pixel, row -1 for none.
+struct RowPixels {
+  std::array<int, kVoxelsPerSide> rows;
+  std::array<int, kVoxelsPerSide> columns;
+};
+
+// Projects the kVoxelsPerSide voxels of a block's row, from its first voxel `line` in the camera
+// frame one step apart, to their pixels: the nearest pixel of each (its integer coordinates plus
+// one half) where the voxel is in front of the camera, no deeper than max_depth and in the image.
+// Branch-free, so that the compiler vectorizes it; on x86-64 cloned for AVX2 and AVX-512 (picked
+// at load time), where the same operations give the same bits four and eight lanes at a time (the
+// build keeps -ffp-contract=off, so no clone fuses a multiply and an add).
+#if defined(__x86_64__)
+#define THICKET_VECTOR_CLONES gnu::target_clones("avx512f", "avx2", "default"),
+#else
+#define THICKET_VECTOR_CLONES
+#endif
+struct RowProjection {
+  double step[3];
+  double fx, fy, column_offset, row_offset, width, height, max_depth;
+
+  void project(const Eigen::Vector3d& line, RowPixels& out) const {
+    projectRow(this, line.x(), line.y(), line.z(), out);
+  }
+
+  [[THICKET_VECTOR_CLONES gnu::noinline]] static void projectRow(const RowProjection* c, double lx,
+                                                                 double ly, double lz,
+                                                                 RowPixels& out) {
+    for (int i = 0; i < kVoxelsPerSide; ++i) {
+      const double x = lx + i * c->step[0];
+      const double y = ly + i * c->step[1];
+      const double z = lz + i * c->step[2];
+      const double inverse_z = 1.0 / z;
+      const double column = c->fx * x * inverse_z + c->column_offset;
+      const double row = c->fy * y * inverse_z + c->row_offset;
+      const bool seen = (z > 0) & (z <= c->max_depth) & (column >= 0) & (column < c->width) &
+                        (row >= 0) & (row < c->height);
+      out.rows[i] = static_cast<int>(seen ? row : -1.0);
+      out.columns[i] = static_cast<int>(seen ? column : 0.0);
+    }
+  }
+};
+
 TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& world_T_camera,
                                           const TsdfIntegratorOptions& options,
                                           const VoxelUpdater& updater, TsdfLayer& layer) {
@@ -647,6 +700,15 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
   const RowClip clip_top(camera.fy * step.y() + row_offset * step.z(), false);
   const RowClip clip_bottom(-(camera.fy * step.y() + (row_offset - camera.height) * step.z()),
                             true);
+
+  const RowProjection projection{{step.x(), step.y(), step.z()},
+                                 camera.fx,
+                                 camera.fy,
+                                 column_offset,
+                                 row_offset,
+                                 width,
+                                 height,
+                                 max_depth};
 
   TsdfIntegrationResult result;
   // New blocks are filled here first and allocated only if some voxel was updated.
@@ -699,27 +761,16 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
         lo = std::max(lo, 0);
         hi = std::min(hi, kVoxelsPerSide - 1);
         TsdfVoxel* row_voxels = voxels + kVoxelsPerSide * (j + kVoxelsPerSide * k);
-        // First each voxel's pixel row and column (row -1: none) in a branch-free pass the
-        // compiler vectorizes, then the updates.
+        // First each voxel's pixel in a branch-free pass the compiler vectorizes, then the
+        // updates.
         if (lo > hi) continue;
-        std::array<int, kVoxelsPerSide> rows;
-        std::array<int, kVoxelsPerSide> columns;
-        for (int i = 0; i < kVoxelsPerSide; ++i) {
-          const double x = line.x() + i * step.x();
-          const double y = line.y() + i * step.y();
-          const double z = line.z() + i * step.z();
-          const double inverse_z = 1.0 / z;
-          const double column = camera.fx * x * inverse_z + column_offset;
-          const double row = camera.fy * y * inverse_z + row_offset;
-          const bool seen = (z > 0) & (z <= max_depth) & (column >= 0) & (column < width) &
-                            (row >= 0) & (row < height);
-          rows[i] = static_cast<int>(seen ? row : -1.0);
-          columns[i] = static_cast<int>(seen ? column : 0.0);
-        }
+        RowPixels pixels;
+        projection.project(line, pixels);
         unsigned row_reported = 0;
         for (int i = lo; i <= hi; ++i) {
-          if (rows[i] < 0) continue;
-          const size_t pixel = static_cast<size_t>(rows[i]) * camera.width + columns[i];
+          if (pixels.rows[i] < 0) continue;
+          const size_t pixel =
+              static_cast<size_t>(pixels.rows[i]) * camera.width + pixels.columns[i];
           const Eigen::Vector3d p = line + i * step;
           const double z = p.z();
           // Deeper behind its pixel's return than any update or shadow reaches (most voxels of
