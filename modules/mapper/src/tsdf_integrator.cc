@@ -354,36 +354,6 @@ std::vector<PixelMeasurement> measurePixelsAlongRays(const DepthImage& image, co
   return pixels;
 }
 
-// Clips a row of a block's voxels, i in [0, 16), to those with a + b i >= 0 (strict: > 0), for
-// the row's a and a slope b fixed for the frame, with one index of slack on each side against
-// rounding, the exact test being made per voxel anyway.
-class RowClip {
- public:
-  RowClip(double b, bool strict) : b_(b), inverse_b_(1 / b), strict_(strict) {}
-
-  void operator()(double a, int& lo, int& hi) const {
-    if (b_ == 0) {
-      if (strict_ ? !(a > 0) : !(a >= 0)) hi = -1;  // NaN excludes the row too
-      return;
-    }
-    const double root = -a * inverse_b_;  // a + b i = 0
-    if (!std::isfinite(root)) return;
-    // floor and ceil of the root clamped to [-1, 16], without a library call.
-    const double clamped = std::clamp(root, -1.0, 16.0);
-    const int truncated = static_cast<int>(clamped);
-    if (b_ > 0) {
-      lo = std::max(lo, truncated - (truncated > clamped) - 1);
-    } else {
-      hi = std::min(hi, truncated + (truncated < clamped) + 1);
-    }
-  }
-
- private:
-  double b_;
-  double inverse_b_;
-  bool strict_;
-};
-
 // Blocks whose voxel centres may lie in the frustum up to max_depth, in indexLess order.
 std::vector<BlockIndex> frustumBlocks(const PinholeCamera& camera, const Pose& world_T_camera,
                                       const Pose& camera_T_world, const TsdfLayer& layer,
@@ -621,10 +591,11 @@ class SurfaceBlocks {
   BlockIndex last_last_ = last_first_;
 };
 
-// Each voxel of a block's row: the row and column of its pixel, row -1 for none.
+// Each voxel of a block's row: the row and column of its pixel, and which voxels have one.
 struct RowPixels {
   std::array<int, kVoxelsPerSide> rows;
   std::array<int, kVoxelsPerSide> columns;
+  uint32_t seen = 0;  // bit i: voxel i has a pixel
 };
 
 // Projects the kVoxelsPerSide voxels of a block's row, from its first voxel `line` in the camera
@@ -640,15 +611,16 @@ struct RowPixels {
 #endif
 struct RowProjection {
   double step[3];
-  double fx, fy, column_offset, row_offset, width, height, max_depth;
+  double fx, fy, column_offset, row_offset, width, height;
 
-  void project(const Eigen::Vector3d& line, RowPixels& out) const {
-    projectRow(this, line.x(), line.y(), line.z(), out);
+  void project(const Eigen::Vector3d& line, double max_depth, RowPixels& out) const {
+    projectRow(this, line.x(), line.y(), line.z(), max_depth, out);
   }
 
   [[THICKET_VECTOR_CLONES gnu::noinline]] static void projectRow(const RowProjection* c, double lx,
                                                                  double ly, double lz,
-                                                                 RowPixels& out) {
+                                                                 double max_depth, RowPixels& out) {
+    std::array<int, kVoxelsPerSide> seen_at;
     for (int i = 0; i < kVoxelsPerSide; ++i) {
       const double x = lx + i * c->step[0];
       const double y = ly + i * c->step[1];
@@ -656,11 +628,15 @@ struct RowProjection {
       const double inverse_z = 1.0 / z;
       const double column = c->fx * x * inverse_z + c->column_offset;
       const double row = c->fy * y * inverse_z + c->row_offset;
-      const bool seen = (z > 0) & (z <= c->max_depth) & (column >= 0) & (column < c->width) &
+      const bool seen = (z > 0) & (z <= max_depth) & (column >= 0) & (column < c->width) &
                         (row >= 0) & (row < c->height);
-      out.rows[i] = static_cast<int>(seen ? row : -1.0);
+      seen_at[i] = seen;
+      out.rows[i] = static_cast<int>(seen ? row : 0.0);
       out.columns[i] = static_cast<int>(seen ? column : 0.0);
     }
+    uint32_t mask = 0;
+    for (int i = 0; i < kVoxelsPerSide; ++i) mask |= static_cast<uint32_t>(seen_at[i]) << i;
+    out.seen = mask;
   }
 };
 
@@ -685,30 +661,14 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
   const Eigen::Matrix3d steps = camera_R_world * layer.voxelSize();  // column a: one voxel along a
   const Eigen::Vector3d step = steps.col(0);
   // Pixel centres sit at integer coordinates, so the nearest pixel of a projection is its
-  // integer part plus one half: column = fx x / z + cx + 0.5 is in [0, width) iff, for z > 0,
-  // fx x + (cx + 0.5) z >= 0 and fx x + (cx + 0.5 - width) z < 0; rows likewise. All four, and
-  // 0 < z <= max_depth, are linear in a row's voxel index i.
-  const double column_offset = camera.cx + 0.5;
-  const double row_offset = camera.cy + 0.5;
-  const double width = camera.width;
-  const double height = camera.height;
-  const RowClip clip_near(step.z(), true);
-  const RowClip clip_far(-step.z(), false);
-  const RowClip clip_left(camera.fx * step.x() + column_offset * step.z(), false);
-  const RowClip clip_right(-(camera.fx * step.x() + (column_offset - camera.width) * step.z()),
-                           true);
-  const RowClip clip_top(camera.fy * step.y() + row_offset * step.z(), false);
-  const RowClip clip_bottom(-(camera.fy * step.y() + (row_offset - camera.height) * step.z()),
-                            true);
-
+  // integer part plus one half.
   const RowProjection projection{{step.x(), step.y(), step.z()},
                                  camera.fx,
                                  camera.fy,
-                                 column_offset,
-                                 row_offset,
-                                 width,
-                                 height,
-                                 max_depth};
+                                 camera.cx + 0.5,
+                                 camera.cy + 0.5,
+                                 static_cast<double>(camera.width),
+                                 static_cast<double>(camera.height)};
 
   TsdfIntegrationResult result;
   // New blocks are filled here first and allocated only if some voxel was updated.
@@ -750,25 +710,14 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
       const Eigen::Vector3d slice = first + k * steps.col(2);
       for (int j = 0; j < kVoxelsPerSide; ++j) {
         const Eigen::Vector3d line = slice + j * steps.col(1);
-        int lo = 0;
-        int hi = kVoxelsPerSide - 1;
-        clip_near(line.z(), lo, hi);
-        clip_far(block_depth - line.z(), lo, hi);
-        clip_left(camera.fx * line.x() + column_offset * line.z(), lo, hi);
-        clip_right(-(camera.fx * line.x() + (column_offset - camera.width) * line.z()), lo, hi);
-        clip_top(camera.fy * line.y() + row_offset * line.z(), lo, hi);
-        clip_bottom(-(camera.fy * line.y() + (row_offset - camera.height) * line.z()), lo, hi);
-        lo = std::max(lo, 0);
-        hi = std::min(hi, kVoxelsPerSide - 1);
         TsdfVoxel* row_voxels = voxels + kVoxelsPerSide * (j + kVoxelsPerSide * k);
         // First each voxel's pixel in a branch-free pass the compiler vectorizes, then the
-        // updates.
-        if (lo > hi) continue;
+        // updates of the voxels that have one.
         RowPixels pixels;
-        projection.project(line, pixels);
+        projection.project(line, block_depth, pixels);
         unsigned row_reported = 0;
-        for (int i = lo; i <= hi; ++i) {
-          if (pixels.rows[i] < 0) continue;
+        for (uint32_t seen = pixels.seen; seen != 0; seen &= seen - 1) {
+          const int i = std::countr_zero(seen);
           const size_t pixel =
               static_cast<size_t>(pixels.rows[i]) * camera.width + pixels.columns[i];
           const Eigen::Vector3d p = line + i * step;
