@@ -710,6 +710,12 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
       const Eigen::Vector3d slice = first + k * steps.col(2);
       for (int j = 0; j < kVoxelsPerSide; ++j) {
         const Eigen::Vector3d line = slice + j * steps.col(1);
+        // A row behind the camera or beyond the block's depth bound at both ends is so
+        // throughout (a voxel's z, computed as projectRow does, is monotonic along the row).
+        const double z_last = line.z() + (kVoxelsPerSide - 1) * step.z();
+        if ((line.z() > block_depth && z_last > block_depth) || (line.z() <= 0 && z_last <= 0)) {
+          continue;
+        }
         TsdfVoxel* row_voxels = voxels + kVoxelsPerSide * (j + kVoxelsPerSide * k);
         // First each voxel's pixel in a branch-free pass the compiler vectorizes, then the
         // updates of the voxels that have one.
