@@ -204,6 +204,27 @@ TEST(MapUpdate, EsdfVoxelsKeepTheirFlags) {
   }
 }
 
+// A bad voxel anywhere in a block refuses the message, naming what is wrong with it, and the
+// mirror keeps no part of it.
+TEST(MapUpdate, ABadVoxelInsideABlockIsRefusedWithItsReason) {
+  EsdfLayer layer(0.2);
+  layer.allocateBlock({0, 0, 0}).voxels.fill({1.0f, true, false});
+  const map_update_t good = encodeMapUpdate(layer, {1, 1, 0, true}, {}, {}, 1 << 20, false)[0];
+  const auto reason = [&](size_t byte, uint8_t value) {
+    map_update_t msg = good;
+    msg.blocks[0].data[byte] = value;
+    MapMirror<EsdfVoxel> mirror;
+    const auto result = mirror.apply(msg);
+    EXPECT_EQ(result.outcome, MapMirror<EsdfVoxel>::Outcome::kRefused);
+    EXPECT_EQ(mirror.layer(), nullptr);
+    return result.reason;
+  };
+  constexpr size_t kVoxel = 2345 * 5;  // five bytes a voxel: float distance, flags
+  EXPECT_NE(reason(kVoxel + 4, 0x04).find("unknown flag bits"), std::string::npos);
+  // 1.0f is 0x3f800000; with its top byte 0x7f, +infinity.
+  EXPECT_NE(reason(kVoxel + 3, 0x7f).find("non-finite distance"), std::string::npos);
+}
+
 // Layers compare by value: the padding bytes of an ESDF voxel (a float and two bools) hold
 // whatever the memory held before and must not make equal layers differ.
 TEST(VoxelLayer, IdenticalLayersIgnorePaddingButNotValues) {
