@@ -180,22 +180,43 @@ inline PixelMeasurement measurePixel(double depth, double scale, const DepthImag
   return {distance, range, measurementWeight(range)};
 }
 
-// PinholeCamera::backProject at a frame's pixels, each column's and row's division done once:
+// PinholeCamera::backProject at a camera's pixels, each column's and row's division done once:
 // (u - cx) / fx * depth as there, bit for bit where the compiler does not fuse multiplies and adds
-// (x86-64 without FMA; targets with FMA need -ffp-contract=off for that).
+// (x86-64 without FMA; targets with FMA need -ffp-contract=off for that); and each pixel's unit
+// ray, at(u, v, 1).normalized(), computed once per camera (forCamera).
 class PixelRays {
  public:
-  explicit PixelRays(const PinholeCamera& camera) : xs_(camera.width), ys_(camera.height) {
+  explicit PixelRays(const PinholeCamera& camera)
+      : camera_(camera), xs_(camera.width), ys_(camera.height) {
     for (int u = 0; u < camera.width; ++u) xs_[u] = (u - camera.cx) / camera.fx;
     for (int v = 0; v < camera.height; ++v) ys_[v] = (v - camera.cy) / camera.fy;
+    units_.reserve(static_cast<size_t>(camera.width) * camera.height);
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) units_.push_back(at(u, v, 1.0).normalized());
+    }
   }
+
+  // The rays of the camera, built when this thread last saw another one.
+  static const PixelRays& forCamera(const PinholeCamera& camera) {
+    thread_local std::optional<PixelRays> cached;
+    const PinholeCamera* c = cached ? &cached->camera_ : nullptr;
+    if (!c || c->width != camera.width || c->height != camera.height || c->fx != camera.fx ||
+        c->fy != camera.fy || c->cx != camera.cx || c->cy != camera.cy) {
+      cached.emplace(camera);
+    }
+    return *cached;
+  }
+
   Eigen::Vector3d at(int u, int v, double depth) const {
     return {xs_[u] * depth, ys_[v] * depth, depth};
   }
+  const Eigen::Vector3d& unit(size_t pixel) const { return units_[pixel]; }
 
  private:
+  PinholeCamera camera_;
   std::vector<double> xs_;
   std::vector<double> ys_;
+  std::vector<Eigen::Vector3d> units_;
 };
 
 // Per pixel, the cosine of the angle between its ray and the surface normal estimated from the
@@ -249,7 +270,7 @@ std::vector<float> surfaceCosines(const DepthImage& image, const PixelRays& rays
       const Eigen::Vector3d normal = along_u.cross(along_v);
       const double norm = normal.norm();
       if (!(norm > 0)) continue;
-      const Eigen::Vector3d ray = rays.at(u, v, 1.0).normalized();
+      const Eigen::Vector3d& ray = rays.unit(i);
       cosines[i] =
           static_cast<float>(std::clamp(std::abs(normal.dot(ray)) / norm, kMinSurfaceCosine, 1.0));
     }
@@ -645,7 +666,7 @@ TsdfIntegrationResult integrateProjective(const DepthImage& image, const Pose& w
                                           const VoxelUpdater& updater, TsdfLayer& layer) {
   const PinholeCamera& camera = image.camera;
   const Pose camera_T_world = world_T_camera.inverse();
-  const PixelRays rays(image.camera);
+  const PixelRays& rays = PixelRays::forCamera(image.camera);
   const std::vector<float> cosines = surfaceCosines(image, rays, options);
   const NewSurfaces shadow =
       newSurfacePixels(image, rays, world_T_camera, cosines, options, updater, layer);
@@ -794,12 +815,11 @@ struct AxisWalk {
 TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& world_T_camera,
                                        const TsdfIntegratorOptions& options,
                                        const VoxelUpdater& updater, TsdfLayer& layer) {
-  const PixelRays rays(image.camera);
+  const PixelRays& rays = PixelRays::forCamera(image.camera);
   const std::vector<PixelMeasurement> pixels = measurePixelsAlongRays(image, rays, options);
   const std::vector<float> cosines = surfaceCosines(image, rays, options);
   const NewSurfaces shadow =
       newSurfacePixels(image, rays, world_T_camera, cosines, options, updater, layer);
-  const PinholeCamera& camera = image.camera;
   const double voxel_size = layer.voxelSize();
   const Eigen::Vector3d& origin = world_T_camera.position;
   const Eigen::Vector3d origin_voxels = origin / voxel_size;
@@ -818,9 +838,7 @@ TsdfIntegrationResult integrateRaycast(const DepthImage& image, const Pose& worl
   // returns what it changed.
   const auto walk = [&](size_t pixel, double t_end, auto&& visit) {
     const PixelMeasurement& m = pixels[pixel];
-    const int u = static_cast<int>(pixel % camera.width);
-    const int v = static_cast<int>(pixel / camera.width);
-    const Eigen::Vector3d dir = world_T_camera.orientation * rays.at(u, v, 1.0).normalized();
+    const Eigen::Vector3d dir = world_T_camera.orientation * rays.unit(pixel);
     AxisWalk x(origin_voxel.x(), origin_voxels.x(), dir.x(), voxel_size);
     AxisWalk y(origin_voxel.y(), origin_voxels.y(), dir.y(), voxel_size);
     AxisWalk z(origin_voxel.z(), origin_voxels.z(), dir.z(), voxel_size);

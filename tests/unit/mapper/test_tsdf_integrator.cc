@@ -11,6 +11,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <vector>
 
@@ -566,6 +567,26 @@ TEST_P(TsdfIntegratorTest, DeterministicWithExactChangedBlocks) {
   ASSERT_EQ(first.blockIndices(), second.blockIndices());
   for (const BlockIndex& b : first.blockIndices()) {
     EXPECT_TRUE(sameVoxels(*first.block(b), *second.block(b))) << "block " << b.transpose();
+  }
+}
+
+// Each thread keeps the last camera's pixel rays: a frame of another camera of the same size
+// (another focal length) after it maps as in a thread that never saw the first.
+TEST_P(TsdfIntegratorTest, AnotherCameraOfTheSameSizeIsMappedWithItsOwnRays) {
+  const std::vector<Frame> frames = forestFrames(2);
+  Frame narrow = frames[1];
+  narrow.image.camera = PinholeCamera::fromHorizontalFov(320, 240, pi / 3);
+  const TsdfIntegrator integrator = makeIntegrator(method());
+  TsdfLayer after_other(voxelSize());
+  integrator.integrate(frames[0].image, frames[0].world_T_camera, after_other);
+  after_other = TsdfLayer(voxelSize());
+  integrator.integrate(narrow.image, narrow.world_T_camera, after_other);
+  TsdfLayer alone(voxelSize());
+  std::thread([&] { integrator.integrate(narrow.image, narrow.world_T_camera, alone); }).join();
+  ASSERT_EQ(after_other.blockIndices(), alone.blockIndices());
+  ASSERT_FALSE(alone.blockIndices().empty());
+  for (const BlockIndex& b : alone.blockIndices()) {
+    EXPECT_TRUE(sameVoxels(*after_other.block(b), *alone.block(b))) << "block " << b.transpose();
   }
 }
 
