@@ -2,6 +2,7 @@
 // must give the same rows at any thread count, shard or resume, wall-clock times aside.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,18 @@ inline Table readTable(const std::string& path) {
   Table table = {csv->header};
   for (const CsvRecord& row : csv->rows) table.push_back(row.cells);
   return table;
+}
+
+/// Row `row` of a table (1: the first after the header) as cells by column name; a failure (and
+/// no cells) when the table has no such row.
+inline std::map<std::string, std::string> cellsByColumn(const Table& table, size_t row = 1) {
+  EXPECT_LT(row, table.size()) << "no row " << row;
+  std::map<std::string, std::string> cells;
+  if (row >= table.size()) return cells;
+  for (size_t i = 0; i < table[0].size() && i < table[row].size(); ++i) {
+    cells[table[0][i]] = table[row][i];
+  }
+  return cells;
 }
 
 /// A table without the columns that measure wall-clock time (wall_time_s and the stage timings):

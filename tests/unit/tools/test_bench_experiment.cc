@@ -29,6 +29,7 @@ namespace thicket::bench {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::cellsByColumn;
 using testing::readTable;
 using testing::Table;
 using testing::withoutTimes;
@@ -483,10 +484,7 @@ TEST(BenchExperiment, ConfigChangesTheOptionsEveryTrialFlies) {
   const auto success = [](const std::string& dir) {
     const Table table = readTable(dir + "/trials.csv");
     EXPECT_EQ(table.size(), 2u) << dir;
-    if (table.size() != 2) return std::string();
-    const auto column = std::find(table[0].begin(), table[0].end(), "success");
-    EXPECT_NE(column, table[0].end());
-    return column == table[0].end() ? std::string() : table[1][column - table[0].begin()];
+    return cellsByColumn(table)["success"];
   };
   EXPECT_EQ(success(shipped), "1");
   EXPECT_EQ(success(changed), "0");

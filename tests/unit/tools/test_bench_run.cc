@@ -5,14 +5,13 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <map>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "bench_tables.h"
 #include "cli.h"
 #include "config_copy.h"
 #include "thicket/sim/world.h"
@@ -31,21 +30,9 @@ std::string tempDir(const std::string& name) {
   return ::testing::TempDir() + "/bench_run_" + std::to_string(::getpid()) + "_" + name;
 }
 
-using Table = std::vector<std::vector<std::string>>;
-
-// A CSV without quoted fields (the rows these runs write have none).
-Table readCsv(const std::string& path) {
-  std::ifstream file(path);
-  Table rows;
-  for (std::string line; std::getline(file, line);) {
-    std::vector<std::string> cells;
-    std::stringstream stream(line);
-    for (std::string cell; std::getline(stream, cell, ',');) cells.push_back(cell);
-    if (!line.empty() && line.back() == ',') cells.emplace_back();
-    rows.push_back(cells);
-  }
-  return rows;
-}
+using testing::cellsByColumn;
+using testing::readTable;
+using testing::Table;
 
 sim::World paperWorld(uint64_t seed) {
   auto spec = sim::loadScenario("paper", std::string(THICKET_SOURCE_DIR) + "/config/worlds");
@@ -58,7 +45,7 @@ sim::World paperWorld(uint64_t seed) {
 void checkPath(const std::string& file, const sim::World& world, double path_length_m,
                double path_time_s) {
   SCOPED_TRACE(file);
-  const Table path = readCsv(file);
+  const Table path = readTable(file);
   ASSERT_GE(path.size(), 2u);
   EXPECT_EQ(path[0], (std::vector<std::string>{"t", "x", "y", "z", "yaw"}));
   double length = 0;
@@ -93,7 +80,7 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
             std::string::npos)
       << result.output;
 
-  const Table rows = readCsv(out + "/trials.csv");
+  const Table rows = readTable(out + "/trials.csv");
   ASSERT_EQ(rows.size(), 3u);
   const std::vector<std::string> fixed_columns = {"trial",
                                                   "seed",
@@ -135,8 +122,7 @@ TEST(BenchRun, WritesARowAndAPathPerTrial) {
     SCOPED_TRACE("trial " + std::to_string(trial));
     const std::vector<std::string>& row = rows[static_cast<size_t>(trial) + 1];
     ASSERT_EQ(row.size(), header.size());
-    std::map<std::string, std::string> cell;
-    for (size_t k = 0; k < header.size(); ++k) cell[header[k]] = row[k];
+    std::map<std::string, std::string> cell = cellsByColumn(rows, static_cast<size_t>(trial) + 1);
     EXPECT_EQ(cell["trial"], std::to_string(trial));
     EXPECT_EQ(cell["seed"], std::to_string(7 + trial));
     EXPECT_EQ(cell["scenario"], "paper");
@@ -179,12 +165,9 @@ TEST(BenchRun, ConfigChangesTheOptionsTheGraphFlies) {
   const CliResult second = bench(common + changed + " --config " + demanding);
   ASSERT_EQ(second.status, 0) << second.output;
   const auto row = [](const std::string& dir) {
-    const Table table = readCsv(dir + "/trials.csv");
+    const Table table = readTable(dir + "/trials.csv");
     EXPECT_EQ(table.size(), 2u);
-    std::map<std::string, std::string> cell;
-    for (size_t i = 0; i < table[0].size() && i < table.back().size(); ++i)
-      cell[table[0][i]] = table.back()[i];
-    return cell;
+    return cellsByColumn(table);
   };
   const auto reached = row(shipped), held = row(changed);
   EXPECT_EQ(reached.at("success"), "1");
