@@ -193,12 +193,20 @@ struct Classified {
 // A block's array stride along x, y and z.
 constexpr int kStride[3] = {1, kVoxelsPerSide, kVoxelsPerSide* kVoxelsPerSide};
 
-// The position class of voxel lin in its block (see Neighbourhood).
-inline int positionClass(int lin) {
+// The position class of each voxel of a block (see Neighbourhood), by linear index.
+constexpr std::array<uint8_t, kVoxelsPerBlock> kPositionClasses = [] {
+  std::array<uint8_t, kVoxelsPerBlock> classes{};
   const auto where = [](int coordinate) {
     return (coordinate != 0) + (coordinate == kVoxelsPerSide - 1);
   };
-  return where(lin & 15) + 3 * where((lin >> 4) & 15) + 9 * where(lin >> 8);
+  for (int lin = 0; lin < kVoxelsPerBlock; ++lin) {
+    classes[lin] =
+        static_cast<uint8_t>(where(lin & 15) + 3 * where((lin >> 4) & 15) + 9 * where(lin >> 8));
+  }
+  return classes;
+}();
+inline int positionClass(int lin) {
+  return kPositionClasses[lin];
 }
 
 // Whether voxel lin has all 26 neighbours in its block (the class of the middle along every axis).
@@ -218,12 +226,19 @@ inline bool nearPropagating(const BlockNode* node, int lin) {
 }
 
 // Calls f(direction, node, linear index) for each neighbour (in the empty stand-in if its block is
-// not allocated).
+// not allocated). Unrolled, and for interior voxels (two thirds of a block) with the neighbours'
+// offsets as constants: the scans of the changed voxels' neighbourhoods are most of an update.
 template <class F>
 inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
   const int c = positionClass(lin);
+  if (c == 13) {
+#pragma GCC unroll 26
+    for (int d = 0; d < 26; ++d) f(d, node, lin + kNeighbours.offset[13][d]);
+    return;
+  }
   const std::array<uint8_t, 26>& slot = kNeighbours.slot[c];
   const std::array<int16_t, 26>& offset = kNeighbours.offset[c];
+#pragma GCC unroll 26
   for (int d = 0; d < 26; ++d) f(d, node->neighbours[slot[d]], lin + offset[d]);
 }
 
