@@ -49,11 +49,11 @@
 #include <ompl/base/objectives/PathLengthOptimizationObjective.h>
 #include <ompl/base/spaces/RealVectorStateSpace.h>
 #include <ompl/base/terminationconditions/IterationTerminationCondition.h>
-#include <ompl/datastructures/NearestNeighborsLinear.h>
 #include <ompl/geometric/PathGeometric.h>
 #include <ompl/geometric/planners/rrt/RRTstar.h>
 #include <ompl/util/Console.h>
 
+#include "motion_neighbors.h"
 #include "strategies.h"
 #include "thicket/common/esdf_query.h"
 #include "thicket/common/random.h"
@@ -120,39 +120,16 @@ class SeededBoxSampler final : public ob::StateSampler {
   std::mt19937_64 generator_;
 };
 
-// Exact nearest neighbours by a linear scan, as NearestNeighborsLinear, but each distance computed
-// once per query (NearestNeighborsLinear's nearestK sorts with a comparator that computes two per
-// comparison, which dominated the run time), and ties broken by insertion order: the answer does
-// not depend on the sorting algorithm.
-template <typename T>
-class LinearNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
- public:
-  void nearestK(const T& data, std::size_t k, std::vector<T>& nbh) const override {
-    rank(data, nbh, std::numeric_limits<double>::infinity(), k);
+// RRT*'s nearest neighbours: an exact linear scan over the motions' positions, ties broken by
+// insertion order (motion_neighbors.h).
+struct MotionPosition {
+  template <typename Motion>
+  Eigen::Vector3d operator()(const Motion* motion) const {
+    return toVector(motion->state);
   }
-  void nearestR(const T& data, double radius, std::vector<T>& nbh) const override {
-    rank(data, nbh, radius, std::numeric_limits<std::size_t>::max());
-  }
-
- private:
-  // The at most k elements within radius, nearest first.
-  void rank(const T& data, std::vector<T>& nbh, double radius, std::size_t k) const {
-    const std::vector<T>& elements = this->data_;
-    ranked_.clear();
-    for (std::size_t i = 0; i < elements.size(); ++i) {
-      const double d = this->distFun_(elements[i], data);
-      if (d <= radius) ranked_.emplace_back(d, i);
-    }
-    const auto end = ranked_.begin() + static_cast<std::ptrdiff_t>(std::min(k, ranked_.size()));
-    // (distance, index) is a total order: the k nearest, sorted, whatever the algorithm.
-    if (end != ranked_.end()) std::nth_element(ranked_.begin(), end, ranked_.end());
-    std::sort(ranked_.begin(), end);
-    nbh.clear();
-    for (auto it = ranked_.begin(); it != end; ++it) nbh.push_back(elements[it->second]);
-  }
-
-  mutable std::vector<std::pair<double, std::size_t>> ranked_;
 };
+template <typename T>
+using MotionNeighbors = PointNearestNeighbors<T, MotionPosition>;
 
 // RRT* with its goal-bias RNG seeded, and the tree's size exposed for the reason.
 class SeededRrtStar final : public og::RRTstar {
@@ -272,7 +249,7 @@ class RrtStarSelector final : public GoalSelector {
     planner->setSampleRejection(false);
     planner->setNewStateRejection(false);
     planner->setTreePruning(false);
-    planner->setNearestNeighbors<LinearNearestNeighbors>();  // sets the planner up
+    planner->setNearestNeighbors<MotionNeighbors>();  // sets the planner up
     ob::IterationTerminationCondition iterations(static_cast<unsigned int>(o.iterations));
     planner->solve(iterations);
 
