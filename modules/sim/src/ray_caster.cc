@@ -343,20 +343,27 @@ void RayCaster::View::castFan(const Eigen::Vector2d& azimuth,
   }
   const double ax = azimuth.x();
   const double ay = azimuth.y();
-  // In squares, to spare a square root per ray: the xy part is within 1e-9 rad of the azimuth.
-  for (const Eigen::Vector3d& d : unit_dirs) {
-    const double xy_sq = d.x() * d.x() + d.y() * d.y();
-    const double cross = d.x() * ay - d.y() * ax;
-    if (xy_sq > 1e-18 && !(cross * cross <= 1e-18 * xy_sq && d.x() * ax + d.y() * ay > 0)) {
+  // The length of a ray's xy part when it is in the fan, and 0 when it is (almost) vertical: in
+  // every fan. Without a square root: the xy part is within 1e-9 rad of the azimuth, so that its
+  // length is its dot product with the azimuth, up to rounding.
+  const auto xyInFan = [ax, ay](const Eigen::Vector3d& d) {
+    const double along = d.x() * ax + d.y() * ay;
+    const double across = d.x() * ay - d.y() * ax;
+    if (along > 1e-9 && std::abs(across) <= 1e-9 * along) return along;
+    if (!(along * along + across * across <= 1e-18)) {
       throw std::invalid_argument("RayCaster::View::castFan: a ray is not in the fan");
     }
+    return 0.0;
+  };
+  if (!startCasting("RayCaster::View::castFan", unit_dirs.size(), ranges, hits)) {
+    for (const Eigen::Vector3d& d : unit_dirs) xyInFan(d);
+    return;
   }
-  if (!startCasting("RayCaster::View::castFan", unit_dirs.size(), ranges, hits)) return;
   // Where the fan's vertical half-plane crosses each cylinder footprint, as xy travel s from the
   // eye: the ray of slope m = dz / |dxy| is at height eye.z + m * s there. It enters the side
   // where the footprint starts (from outside it), or the cap from above in between.
   struct Crossing {
-    double s_in, s_out;
+    double s_in, s_out, height;
     bool from_outside;
     int index;
   };
@@ -371,7 +378,7 @@ void RayCaster::View::castFan(const Eigen::Vector2d& azimuth,
     if (discriminant < 0 || (outside > 0 && b >= 0)) return;  // missed, or behind the eye
     const double far = std::sqrt(discriminant) - b;
     const double s_in = outside > 0 ? outside / far : 0.0;  // the stable form, as in cast()
-    if (s_in <= max_range_) crossings.push_back({s_in, far, outside > 0, j});
+    if (s_in <= max_range_) crossings.push_back({s_in, far, c.height, outside > 0, j});
   };
   for (const int j : around_eye_) cross(j);
   const int bin = azimuthBin(pseudoAngle(ax, ay));
@@ -403,12 +410,13 @@ void RayCaster::View::castFan(const Eigen::Vector2d& azimuth,
   for (size_t i = 0; i < unit_dirs.size(); ++i) {
     const Eigen::Vector3d& d = unit_dirs[i];
     SurfaceHit* hit = hits.empty() ? nullptr : &hits[i];
-    const double xy = std::sqrt(d.x() * d.x() + d.y() * d.y());
-    if (!(xy > 1e-9)) {
-      ranges[i] = cast(d, hit);  // (almost) vertical: in every fan
+    const double xy = xyInFan(d);
+    if (xy == 0) {
+      ranges[i] = cast(d, hit);
       continue;
     }
-    const double slope = d.z() / xy;
+    const double inverse_xy = 1 / xy;
+    const double slope = d.z() * inverse_xy;
     const double z0 = eye_.z();
     Nearest best;  // in xy travel until converted below
     if (slope < 0) best.offer((bounds_min_.z() - z0) / slope, Surface::kGround, -1);
@@ -419,16 +427,15 @@ void RayCaster::View::castFan(const Eigen::Vector2d& azimuth,
     }
     for (const Crossing& c : crossings) {
       if (c.s_in >= best.t) break;
-      const double height = solids_[c.index].height;
       const double z_in = z0 + slope * c.s_in;
-      if (c.from_outside && z_in >= 0 && z_in <= height) {
+      if (c.from_outside && z_in >= 0 && z_in <= c.height) {
         best.offer(c.s_in, Surface::kCylinderSide, c.index);
-      } else if (slope < 0 && z0 > height) {
-        const double s_cap = (height - z0) / slope;
+      } else if (slope < 0 && z0 > c.height) {
+        const double s_cap = (c.height - z0) / slope;
         if (s_cap >= c.s_in && s_cap <= c.s_out) best.offer(s_cap, Surface::kCylinderCap, c.index);
       }
     }
-    best.t /= xy;
+    best.t *= inverse_xy;
     ranges[i] = report(best, makeRay(eye_, d), max_range_, hit);
   }
 }

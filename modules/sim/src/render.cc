@@ -99,22 +99,6 @@ PinholeCamera checkedCamera(const char* what, int width, int height, double hori
   return PinholeCamera::fromHorizontalFov(width, height, horizontal_fov_deg * pi / 180);
 }
 
-// Grazing views stretch a pixel's footprint by 1 / cos(incidence), capped at 1 / this.
-constexpr double kMinCosIncidence = 0.05;
-
-Eigen::Vector3d surfaceNormal(const SurfaceHit& hit, const std::vector<Cylinder>& cylinders) {
-  switch (hit.surface) {
-    case Surface::kWall:
-      return hit.index < 2 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-    case Surface::kCylinderSide: {
-      const Cylinder& c = cylinders[hit.index];
-      return Eigen::Vector3d(hit.point.x() - c.x, hit.point.y() - c.y, 0) / c.radius;
-    }
-    default:
-      return Eigen::Vector3d::UnitZ();
-  }
-}
-
 }  // namespace
 
 // --- DepthRenderer ----------------------------------------------------------------------------
@@ -200,7 +184,7 @@ void StereoCameraOptions::declare(Params& p) {
 }
 
 StereoRenderer::StereoRenderer(const World& world, StereoCameraOptions options)
-    : cylinders_(world.cylinders),
+    : surface_textures_(surfaceTextures(world.cylinders)),
       caster_(world),
       options_(options),
       camera_(checkedCamera("StereoRenderer", options.width, options.height,
@@ -239,28 +223,8 @@ void StereoRenderer::renderCamera(const Pose& world_T_camera, std::vector<uint8_
   castImage(view, camera_, optical_rays_, world_R_camera, true,
             [&](int first, int stride, const std::vector<Eigen::Vector3d>& dirs,
                 const std::vector<double>& ranges, const std::vector<SurfaceHit>& hits) {
-              for (size_t k = 0; k < ranges.size(); ++k) {
-                if (ranges[k] == RayCaster::kNoHit) continue;
-                const double footprint = pixelFootprint(hits[k], dirs[k], ranges[k], image_right);
-                const double gray = surfaceIntensity(hits[k], footprint);
-                image[first + k * stride] =
-                    static_cast<uint8_t>(std::clamp(gray, 0.0, 255.0) + 0.5);
-              }
+              shadeLine(dirs, ranges, hits, image_right, image.data() + first, stride);
             });
-}
-
-double StereoRenderer::pixelFootprint(const SurfaceHit& hit, const Eigen::Vector3d& unit_dir,
-                                      double range, const Eigen::Vector3d& image_right) const {
-  // One pixel to the right turns the ray by about 1 / fx rad, which moves its hit by about
-  // range / fx along image_right, projected onto the surface along the ray. Only this
-  // footprint is filtered: along a column the two cameras sample the same epipolar plane, so
-  // whatever aliasing there is along it, they share.
-  const Eigen::Vector3d normal = surfaceNormal(hit, cylinders_);
-  const double cos_incidence = normal.dot(unit_dir);
-  const double clamped =
-      std::copysign(std::max(std::abs(cos_incidence), kMinCosIncidence), cos_incidence);
-  const Eigen::Vector3d step = image_right - unit_dir * (normal.dot(image_right) / clamped);
-  return range / camera_.fx * step.norm();
 }
 
 }  // namespace thicket::sim

@@ -1,9 +1,13 @@
-// The stereo pair's procedural surface texture (mip-mapped value noise) and surfaceIntensity.
+// The stereo pair's procedural surface texture (mip-mapped value noise), surfaceIntensity and the
+// shading of rendered pixels (StereoRenderer::shadeLine).
+#include <algorithm>
 #include <array>
 #include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <numbers>
+#include <span>
 #include <stdexcept>
 #include <vector>
 
@@ -20,8 +24,9 @@ using std::numbers::pi;
 // 2^kTileBits texels of 1 / kTexelsPerMetre square (10.24 m), the sum of seven octaves whose
 // lattice cells measure 2 texels (2 cm) up to 128 texels (1.28 m). Coarse octaves vary the
 // brightness of a surface, fine ones give the pixel-scale detail a matcher needs. Box-filtered mip
-// levels, sampled trilinearly as a GPU does, low-pass it to a pixel's footprint: eight texel reads
-// per pixel, near each other for neighbouring pixels. The tile repeats every 10.24 m on a surface,
+// levels low-pass it to a pixel's footprint, sampled as a GPU does with "brilinear" filtering
+// (see TextureTile::sample): four texel reads for most pixels, eight for the others, near each
+// other for neighbouring pixels. The tile repeats every 10.24 m on a surface,
 // at least 36 times the disparity at any range (fx * 10.24 m / z against fx * 0.11 m / z), so a
 // matcher never confuses a point with its repeat.
 constexpr int kTileBits = 10;
@@ -35,6 +40,20 @@ constexpr double kTexelShift = 1 << 24;
 // Gray levels per unit of noise: a forest image has a standard deviation of about 30 gray
 // levels, and under 0.1 % of its pixels saturate.
 constexpr double kContrast = 60;
+// Texels hold the texture's gray level offset (kContrast * noise) as int16_t in steps of
+// 1 / kTexelStepsPerGray gray levels, rounded to the nearest: a texel is within 1/128 gray level
+// of the exact (float) mip level, and so is any interpolation of texels; half the memory of
+// floats. The noise is within +-3.5 (seven octaves of +-0.5), so no texel clips.
+using Texel = int16_t;
+constexpr float kTexelStepsPerGray = 64;
+static_assert(kContrast * 0.5 * kOctaves * kTexelStepsPerGray < 32767);
+// Texels are stored in blocks of 2^kBlockBits texels square (see TextureTile::columnIndex).
+constexpr int kBlockBits = 2;
+constexpr uint32_t kBlock = 1u << kBlockBits;
+// Texture coordinates in fixed point, kFractionBits below a level-0 texel: interpolation weights
+// in steps of 1/65536, far below what an 8-bit pixel resolves.
+constexpr int kFractionBits = 16;
+constexpr uint32_t kFractionMask = (uint32_t{1} << kFractionBits) - 1;
 
 inline uint32_t hash32(uint32_t h) {  // "lowbias32" (C. Wellons): an avalanching 32-bit mix
   h ^= h >> 16;
@@ -56,24 +75,42 @@ class TextureTile {
     return tile;
   }
 
-  // The noise (mean about 0, within +-3.5) around level-0 texel coordinates (x, y), filtered to
-  // a footprint of footprint_texels: level log2(footprint_texels), linearly between levels.
-  double sample(double x, double y, double footprint_texels) const {
-    x += kTexelShift;
-    y += kTexelShift;
-    if (!(footprint_texels > 1)) return bilinear(0, x, y);
-    // log2 by the exponent and a linear mantissa: exact at powers of two, monotonic between.
-    const uint64_t bits = std::bit_cast<uint64_t>(footprint_texels);
-    const int level = static_cast<int>(bits >> 52) - 1023;
-    if (level >= kLevels - 1) return bilinear(kLevels - 1, x, y);
-    const double blend = static_cast<double>(bits & ((uint64_t{1} << 52) - 1)) * 0x1.0p-52;
-    const double fine = bilinear(level, x, y);
-    return fine + blend * (bilinear(level + 1, x, y) - fine);
+  // The gray level offset (mean about 0, within +-210) around level-0 texel coordinates (x, y),
+  // filtered to a footprint whose square is footprint_sq texels^2: about level log2(footprint).
+  [[gnu::always_inline]] float sample(double x, double y, double footprint_sq) const {
+    // Fixed point, modulo 2^32: a multiple of the tile's period at every level.
+    const auto fixed = [](double c) {
+      return static_cast<uint32_t>(static_cast<int64_t>((c + kTexelShift) * (1 << kFractionBits)));
+    };
+    const uint32_t fx = fixed(x);
+    const uint32_t fy = fixed(y);
+    if (!(footprint_sq > 1)) return bilinear(0, fx, fy);
+    // log2 of the footprint as half that of its square, by the exponent and a linear mantissa:
+    // exact at powers of two, continuous and monotonic between.
+    const uint64_t bits = std::bit_cast<uint64_t>(footprint_sq);
+    const int exponent = static_cast<int>(bits >> 52) - 1023;
+    const int level = exponent >> 1;
+    if (level >= kLevels - 1) return bilinear(kLevels - 1, fx, fy);
+    const float mantissa = static_cast<float>(bits & ((uint64_t{1} << 52) - 1)) * 0x1.0p-52f;
+    const float between = 0.5f * (mantissa + static_cast<float>(exponent & 1));
+    // "Brilinear": linear between the two levels (trilinear) only in the middle quarter of the
+    // octave between them, the nearer level alone elsewhere, so that most pixels read one level
+    // (texels within about 2^(3/8) = 1.3 times their footprint) instead of two. Trilinear
+    // everywhere takes a fifth longer for stereo depth within half a percentage point of this
+    // beyond 5 m and the same nearer; the nearer level alone, without the blend, makes a step
+    // where a surface point that the cameras see with slightly different footprints switches
+    // level in one image and not in the other (test: TextureChangesSmoothlyWithTheFootprint).
+    const float blend = std::clamp(4 * between - 1.5f, 0.0f, 1.0f);
+    if (blend == 0) return bilinear(level, fx, fy);
+    if (blend == 1) return bilinear(level + 1, fx, fy);
+    const float fine = bilinear(level, fx, fy);
+    return fine + blend * (bilinear(level + 1, fx, fy) - fine);
   }
 
  private:
   TextureTile() {
-    std::vector<float>& base = levels_[0];
+    std::array<std::vector<float>, kLevels> levels;
+    std::vector<float>& base = levels[0];
     base.assign(size_t{1} << (2 * kTileBits), 0.0f);
     std::vector<double> lattice;
     for (int octave = 0; octave < kOctaves; ++octave) {
@@ -99,105 +136,140 @@ class TextureTile {
           const double tx = smoothStep(fx - cx);
           const double bottom = at(cx, cy) + tx * (at(cx + 1, cy) - at(cx, cy));
           const double top = at(cx, cy + 1) + tx * (at(cx + 1, cy + 1) - at(cx, cy + 1));
-          base[texelIndex(kTileBits, x, y)] += static_cast<float>(bottom + ty * (top - bottom));
+          base[static_cast<size_t>(y) * kTileTexels + x] +=
+              static_cast<float>(bottom + ty * (top - bottom));
         }
       }
     }
     for (int level = 1; level < kLevels; ++level) {
-      const std::vector<float>& fine = levels_[level - 1];
-      const int size = kTileTexels >> level;
-      std::vector<float>& coarse = levels_[level];
-      coarse.resize(static_cast<size_t>(size) * size);
-      const int fine_bits = kTileBits - level + 1;
-      for (uint32_t y = 0; y < static_cast<uint32_t>(size); ++y) {
-        for (uint32_t x = 0; x < static_cast<uint32_t>(size); ++x) {
-          coarse[texelIndex(fine_bits - 1, x, y)] =
-              0.25f * (fine[texelIndex(fine_bits, 2 * x, 2 * y)] +
-                       fine[texelIndex(fine_bits, 2 * x + 1, 2 * y)] +
-                       fine[texelIndex(fine_bits, 2 * x, 2 * y + 1)] +
-                       fine[texelIndex(fine_bits, 2 * x + 1, 2 * y + 1)]);
+      const std::vector<float>& fine = levels[level - 1];
+      const size_t size = kTileTexels >> level;
+      std::vector<float>& coarse = levels[level];
+      coarse.resize(size * size);
+      for (size_t y = 0; y < size; ++y) {
+        for (size_t x = 0; x < size; ++x) {
+          coarse[y * size + x] =
+              0.25f *
+              (fine[2 * y * 2 * size + 2 * x] + fine[2 * y * 2 * size + 2 * x + 1] +
+               fine[(2 * y + 1) * 2 * size + 2 * x] + fine[(2 * y + 1) * 2 * size + 2 * x + 1]);
+        }
+      }
+    }
+    texels_.resize(kLevelOffset[kLevels]);
+    for (int level = 0; level < kLevels; ++level) {
+      const int bits = kTileBits - level;
+      const uint32_t size = uint32_t{1} << bits;
+      for (uint32_t y = 0; y < size; ++y) {
+        for (uint32_t x = 0; x < size; ++x) {
+          const float gray = static_cast<float>(kContrast) * levels[level][y * size + x];
+          texels_[kLevelOffset[level] + texelIndex(bits, x, y)] =
+              static_cast<Texel>(std::lround(gray * kTexelStepsPerGray));
         }
       }
     }
   }
 
-  // Where texel (x, y) of a level 2^bits texels square is stored: in blocks of 4 x 4 texels,
-  // one cache line of floats, so that walking the texture along a row or a column (an image
-  // column may run either way on a surface) reads a new line every four texels, not every one.
+  // Where texel (x, y) of a level 2^bits texels square is stored: in blocks of 4 x 4 texels, so
+  // that walking the texture along a row or a column (an image column may run either way on a
+  // surface) reads a new cache line every four texels at most, not every one; a level smaller
+  // than a block takes a whole block. The index is the sum of a column's part and a row's part,
+  // so that a 2 x 2 neighbourhood takes two of each.
+  static uint32_t columnIndex(uint32_t x) {
+    return ((x & ~(kBlock - 1)) << kBlockBits) | (x & (kBlock - 1));
+  }
+  static uint32_t rowIndex(int bits, uint32_t y) {
+    return ((y & ~(kBlock - 1)) << bits) | ((y & (kBlock - 1)) << kBlockBits);
+  }
   static size_t texelIndex(int bits, uint32_t x, uint32_t y) {
-    if (bits < 2) return (static_cast<size_t>(y) << bits) + x;
-    const size_t block = (static_cast<size_t>(y >> 2) << (bits - 2)) + (x >> 2);
-    return (block << 4) + ((y & 3) << 2) + (x & 3);
+    return columnIndex(x) + rowIndex(bits, y);
   }
 
-  // Bilinear between the texel centres of a level, at shifted level-0 coordinates.
-  [[gnu::always_inline]] double bilinear(int level, double x, double y) const {
+  // Bilinear between the texel centres of a level, at fixed-point level-0 coordinates (fx, fy).
+  [[gnu::always_inline]] float bilinear(int level, uint32_t fx, uint32_t fy) const {
     const int bits = kTileBits - level;
     const uint32_t mask = (uint32_t{1} << bits) - 1;
-    const double scale = kLevelScale[level];
-    const double lx = x * scale - 0.5;
-    const double ly = y * scale - 0.5;
-    const int64_t x0 = static_cast<int64_t>(lx);
-    const int64_t y0 = static_cast<int64_t>(ly);
-    const double tx = lx - static_cast<double>(x0);
-    const double ty = ly - static_cast<double>(y0);
-    const uint32_t col0 = static_cast<uint32_t>(x0) & mask;
+    // Level coordinates, half a texel back so that texel centres fall on whole numbers.
+    constexpr uint32_t kHalf = uint32_t{1} << (kFractionBits - 1);
+    const uint32_t lx = (fx >> level) - kHalf;
+    const uint32_t ly = (fy >> level) - kHalf;
+    const uint32_t col0 = (lx >> kFractionBits) & mask;
     const uint32_t col1 = (col0 + 1) & mask;
-    const uint32_t row0 = static_cast<uint32_t>(y0) & mask;
+    const uint32_t row0 = (ly >> kFractionBits) & mask;
     const uint32_t row1 = (row0 + 1) & mask;
-    const float* t = levels_[level].data();
-    const double t00 = t[texelIndex(bits, col0, row0)];
-    const double t10 = t[texelIndex(bits, col1, row0)];
-    const double t01 = t[texelIndex(bits, col0, row1)];
-    const double t11 = t[texelIndex(bits, col1, row1)];
-    const double bottom = t00 + tx * (t10 - t00);
-    const double top = t01 + tx * (t11 - t01);
-    return bottom + ty * (top - bottom);
+    const float tx = static_cast<float>(lx & kFractionMask) * (1.0f / (1 << kFractionBits));
+    const float ty = static_cast<float>(ly & kFractionMask) * (1.0f / (1 << kFractionBits));
+    const Texel* t = texels_.data() + kLevelOffset[level];
+    const uint32_t x0 = columnIndex(col0), x1 = columnIndex(col1);
+    const uint32_t y0 = rowIndex(bits, row0), y1 = rowIndex(bits, row1);
+    const float t00 = t[x0 + y0];
+    const float t10 = t[x1 + y0];
+    const float t01 = t[x0 + y1];
+    const float t11 = t[x1 + y1];
+    const float bottom = t00 + tx * (t10 - t00);
+    const float top = t01 + tx * (t11 - t01);
+    return (bottom + ty * (top - bottom)) * (1.0f / kTexelStepsPerGray);
   }
 
-  static constexpr std::array<double, kLevels> kLevelScale = [] {
-    std::array<double, kLevels> scale{};
-    for (int level = 0; level < kLevels; ++level) scale[level] = 1.0 / (1 << level);
-    return scale;
+  // Where each level starts in texels_, finest first; kLevelOffset[kLevels] is the total.
+  static constexpr std::array<size_t, kLevels + 1> kLevelOffset = [] {
+    std::array<size_t, kLevels + 1> offset{};
+    for (int level = 0; level < kLevels; ++level) {
+      offset[level + 1] =
+          offset[level] + std::max(size_t{kBlock * kBlock}, size_t{1} << (2 * (kTileBits - level)));
+    }
+    return offset;
   }();
 
-  std::array<std::vector<float>, kLevels> levels_;
+  std::vector<Texel> texels_;  // every level, finest first
 };
 
-// A surface point in texture space: level-0 texel coordinates in the tile (surface coordinates
-// plus the surface's own offset) and the surface's mean gray level.
+// Grazing views stretch a pixel's footprint by 1 / cos(incidence), capped at 1 / this.
+constexpr double kMinCosIncidence = 0.05;
+
+// Where a surface point is in the texture: level-0 texel coordinates in the tile (surface
+// coordinates plus the surface's own offset), and the surface's mean gray level. For the
+// footprint, the surface normal's dot products with the ray (normal_dir) and with the image's x
+// axis (normal_right).
 struct TexturePoint {
   double x = 0, y = 0;
   double mean = 0;
+  double normal_dir = 0, normal_right = 0;
 };
 
-// Surfaces of one kind share a mean gray level; each surface has its own offset in the tile, and
-// each cylinder a mean offset of up to +-20 gray levels, so that neighbouring trees differ.
-TexturePoint texturePoint(const SurfaceHit& hit, const std::vector<Cylinder>& cylinders) {
+// The texture point of a hit, with the normal's dot products with the world-frame unit vectors
+// dir and right. Texture is StereoRenderer::SurfaceTexture, which is private to it.
+template <class Texture>
+[[gnu::always_inline]] inline TexturePoint texturePoint(const SurfaceHit& hit,
+                                                        const std::vector<Texture>& textures,
+                                                        const Eigen::Vector3d& dir,
+                                                        const Eigen::Vector3d& right) {
   const Eigen::Vector3d& p = hit.point;
-  const uint32_t seed =
-      hash32((static_cast<uint32_t>(hit.surface) << 24) ^ static_cast<uint32_t>(hit.index));
-  const double mean_offset = (seed >> 24) * (40.0 / 255.0) - 20.0;
-  const auto point = [seed](double s, double w, double mean) {
-    return TexturePoint{s * kTexelsPerMetre + (seed & (kTileTexels - 1)),
-                        w * kTexelsPerMetre + ((seed >> kTileBits) & (kTileTexels - 1)), mean};
+  const auto point = [](const Texture& t, double s, double w, double n_dir, double n_right) {
+    return TexturePoint{s * kTexelsPerMetre + t.offset_x, w * kTexelsPerMetre + t.offset_y, t.mean,
+                        n_dir, n_right};
   };
   switch (hit.surface) {
     case Surface::kGround:
-      return point(p.x(), p.y(), 105);
-    case Surface::kWall:
-      return point(hit.index < 2 ? p.y() : p.x(), p.z(), 150);
+      return point(textures[0], p.x(), p.y(), dir.z(), right.z());
+    case Surface::kWall: {
+      const Texture& t = textures[1 + hit.index];
+      return hit.index < 2 ? point(t, p.y(), p.z(), dir.x(), right.x())
+                           : point(t, p.x(), p.z(), dir.y(), right.y());
+    }
     case Surface::kCylinderCap:
-      return point(p.x(), p.y(), 140 + mean_offset);
+      return point(textures[6 + 2 * hit.index], p.x(), p.y(), dir.z(), right.z());
     case Surface::kCylinderSide: {
       // Around the trunk: pseudoAngle scaled to the circumference, 0.79-1.57 times the arc
       // length and much cheaper than atan2. The texture has a seam where it wraps (on the +x
       // side), like a crack in the bark: both cameras see it alike.
-      const Cylinder& c = cylinders[hit.index];
-      const double dx = p.x() - c.x;
-      const double dy = p.y() - c.y;
+      const Texture& t = textures[5 + 2 * hit.index];
+      const double dx = p.x() - t.axis_x;
+      const double dy = p.y() - t.axis_y;
       const double quarter_turns = (dx == 0 && dy == 0) ? 0 : pseudoAngle(dx, dy);
-      return point(quarter_turns * (0.5 * pi * c.radius), p.z(), 85 + mean_offset);
+      return TexturePoint{quarter_turns * t.texels_per_quarter_turn + t.offset_x,
+                          p.z() * kTexelsPerMetre + t.offset_y, t.mean,
+                          (dx * dir.x() + dy * dir.y()) * t.inverse_radius,
+                          (dx * right.x() + dy * right.y()) * t.inverse_radius};
     }
     case Surface::kNone:
       break;
@@ -207,10 +279,69 @@ TexturePoint texturePoint(const SurfaceHit& hit, const std::vector<Cylinder>& cy
 
 }  // namespace
 
+// Surfaces of one kind share a mean gray level; each surface has its own offset in the tile,
+// drawn from its kind and index, and each cylinder a mean offset of up to +-20 gray levels, so
+// that neighbouring trees differ.
+std::vector<StereoRenderer::SurfaceTexture> StereoRenderer::surfaceTextures(
+    const std::vector<Cylinder>& cylinders) {
+  const auto texture = [](Surface surface, int index, double mean) {
+    const uint32_t seed =
+        hash32((static_cast<uint32_t>(surface) << 24) ^ static_cast<uint32_t>(index));
+    const double mean_offset = (seed >> 24) * (40.0 / 255.0) - 20.0;
+    SurfaceTexture t;
+    t.offset_x = seed & (kTileTexels - 1);
+    t.offset_y = (seed >> kTileBits) & (kTileTexels - 1);
+    t.mean = surface == Surface::kGround || surface == Surface::kWall ? mean : mean + mean_offset;
+    return t;
+  };
+  std::vector<SurfaceTexture> textures;
+  textures.reserve(5 + 2 * cylinders.size());
+  textures.push_back(texture(Surface::kGround, -1, 105));
+  for (int wall = 0; wall < 4; ++wall) textures.push_back(texture(Surface::kWall, wall, 150));
+  for (size_t i = 0; i < cylinders.size(); ++i) {
+    const Cylinder& c = cylinders[i];
+    SurfaceTexture side = texture(Surface::kCylinderSide, static_cast<int>(i), 85);
+    side.axis_x = c.x;
+    side.axis_y = c.y;
+    side.inverse_radius = 1 / c.radius;
+    side.texels_per_quarter_turn = 0.5 * pi * c.radius * kTexelsPerMetre;
+    textures.push_back(side);
+    textures.push_back(texture(Surface::kCylinderCap, static_cast<int>(i), 140));
+  }
+  return textures;
+}
+
 double StereoRenderer::surfaceIntensity(const SurfaceHit& hit, double footprint_m) const {
-  const TexturePoint point = texturePoint(hit, cylinders_);
-  return point.mean + kContrast * TextureTile::instance().sample(point.x, point.y,
-                                                                 footprint_m * kTexelsPerMetre);
+  const TexturePoint point =
+      texturePoint(hit, surface_textures_, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  const double footprint_texels = footprint_m * kTexelsPerMetre;
+  return point.mean +
+         TextureTile::instance().sample(point.x, point.y, footprint_texels * footprint_texels);
+}
+
+void StereoRenderer::shadeLine(std::span<const Eigen::Vector3d> dirs,
+                               std::span<const double> ranges, std::span<const SurfaceHit> hits,
+                               const Eigen::Vector3d& image_right, uint8_t* pixels,
+                               size_t stride) const {
+  const TextureTile& tile = TextureTile::instance();
+  const double texels_per_range = kTexelsPerMetre / camera_.fx;
+  for (size_t k = 0; k < ranges.size(); ++k) {
+    if (ranges[k] == RayCaster::kNoHit) continue;
+    const Eigen::Vector3d& dir = dirs[k];
+    const TexturePoint point = texturePoint(hits[k], surface_textures_, dir, image_right);
+    // The footprint: one pixel to the right turns the ray by about 1 / fx rad, which moves its
+    // hit by about range / fx along image_right, projected onto the surface along the ray: by
+    // image_right - dir * q with q = (normal . image_right) / cos(incidence), of squared length
+    // 1 + q (q - 2 dir . image_right). Only this footprint is filtered: along a column the two
+    // cameras sample the same epipolar plane, so whatever aliasing there is along it, they share.
+    const double cos_incidence =
+        std::copysign(std::max(std::abs(point.normal_dir), kMinCosIncidence), point.normal_dir);
+    const double q = point.normal_right / cos_incidence;
+    const double texels = ranges[k] * texels_per_range;
+    const double footprint_sq = texels * texels * (1 + q * (q - 2 * dir.dot(image_right)));
+    const float gray = static_cast<float>(point.mean) + tile.sample(point.x, point.y, footprint_sq);
+    pixels[k * stride] = static_cast<uint8_t>(std::clamp(gray, 0.0f, 255.0f) + 0.5f);
+  }
 }
 
 }  // namespace thicket::sim

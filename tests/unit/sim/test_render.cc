@@ -742,6 +742,77 @@ TEST(StereoRenderer, TextureIsFilteredToThePixelFootprint) {
   EXPECT_THROW(renderer.surfaceIntensity({}, 0.01), std::invalid_argument);
 }
 
+// The texture changes continuously with the footprint, also where the mip level changes: the two
+// cameras see a surface point with slightly different footprints, and a step where the level
+// switches would show in one image and not in the other. Over ground points and footprints 1 %
+// apart from 1 cm to 1 m, no step exceeds a few gray levels (filtering from the nearer level
+// alone steps by up to 30).
+TEST(StereoRenderer, TextureChangesSmoothlyWithTheFootprint) {
+  const StereoRenderer renderer(stereoForest(), StereoCameraOptions{});
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<double> xy(0, 30);
+  double largest_step = 0, total_change = 0;
+  for (int i = 0; i < 500; ++i) {
+    const SurfaceHit hit{SurfaceHit::Surface::kGround, -1, Eigen::Vector3d(xy(rng), xy(rng), 0)};
+    double previous = renderer.surfaceIntensity(hit, 0.01);
+    for (double footprint = 0.0101; footprint < 1; footprint *= 1.01) {
+      const double gray = renderer.surfaceIntensity(hit, footprint);
+      largest_step = std::max(largest_step, std::abs(gray - previous));
+      total_change += std::abs(gray - previous);
+      previous = gray;
+    }
+  }
+  // Measured: 2.5 (trilinear everywhere: 0.6, the nearer level alone: 32); the texture does
+  // change over the sweep, by 23000 in all.
+  EXPECT_LT(largest_step, 5.0);
+  EXPECT_GT(total_change, 5000);
+}
+
+// The texture at the centre of a finest-level texel is the value noise it is made of (seven
+// octaves of smoothstep-interpolated lattice values drawn by the lowbias32 hash, cells of 2 to 128
+// texels of 1 cm, 60 gray levels per unit of noise, the ground's mean 105 and its own offset in
+// the tile), here as a function of the point: the int16_t texels keep it within 1/128 gray level.
+TEST(StereoRenderer, TextureIsTheValueNoiseWithinItsQuantization) {
+  const auto lowbias32 = [](uint32_t h) {
+    h = (h ^ (h >> 16)) * 0x7feb352dU;
+    h = (h ^ (h >> 15)) * 0x846ca68bU;
+    return h ^ (h >> 16);
+  };
+  const auto smooth = [](double t) { return t * t * (3 - 2 * t); };
+  // The value noise at tile coordinates (x, y) [texels].
+  const auto noise = [&](double x, double y) {
+    double sum = 0;
+    for (uint32_t octave = 0; octave < 7; ++octave) {
+      const double cell = 2 << octave;
+      const uint32_t cells = 1024 / (2 << octave);
+      const double gx = x / cell, gy = y / cell;
+      const uint32_t cx = static_cast<uint32_t>(gx), cy = static_cast<uint32_t>(gy);
+      const auto lattice = [&](uint32_t i, uint32_t j) {
+        return lowbias32((octave << 20) | ((j % cells) << 10) | (i % cells)) * 0x1.0p-32 - 0.5;
+      };
+      const double sx = smooth(gx - cx), sy = smooth(gy - cy);
+      const double bottom = lattice(cx, cy) + sx * (lattice(cx + 1, cy) - lattice(cx, cy));
+      const double top = lattice(cx, cy + 1) + sx * (lattice(cx + 1, cy + 1) - lattice(cx, cy + 1));
+      sum += bottom + sy * (top - bottom);
+    }
+    return sum;
+  };
+  const StereoRenderer renderer(stereoForest(), StereoCameraOptions{});
+  // The ground's offset in the tile, from its surface kind (1) and index (-1).
+  const uint32_t seed = lowbias32((1u << 24) ^ 0xffffffffU);
+  const double offset_x = seed & 1023, offset_y = (seed >> 10) & 1023;
+  std::mt19937_64 rng(31);
+  std::uniform_int_distribution<int> texel(0, 1023);
+  double largest_error = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const double x = texel(rng) + 0.5, y = texel(rng) + 0.5;
+    const Eigen::Vector3d p((x - offset_x) / 100, (y - offset_y) / 100, 0);
+    const double gray = renderer.surfaceIntensity({SurfaceHit::Surface::kGround, -1, p}, 0.001);
+    largest_error = std::max(largest_error, std::abs(gray - (105 + 60 * noise(x, y))));
+  }
+  EXPECT_LT(largest_error, 1.0 / 128 + 1e-3);
+}
+
 TEST(StereoRenderer, RenderingIsDeterministic) {
   const StereoRenderer renderer(stereoForest(), StereoCameraOptions{});
   const Pose body = bodyPose({3, 15, 1.5}, 0.3);

@@ -74,7 +74,7 @@ TEST(DepthAccuracy, RenderedPairsAgainstTheTrueDepth) {
               worst_near_valid, worst_bad);
   // Measured (default options: 3-way SGBM, 64 disparities): valid >= 0.767, near valid >= 0.806,
   // error > 5 % within 5 m <= 0.091 (the worst frame has a trunk closer than the 0.65 m the
-  // search reaches). 5-direction SGBM: 0.833, 0.809, 0.092.
+  // search reaches). 5-direction SGBM: 0.833, 0.807, 0.092.
   EXPECT_GT(worst_valid, 0.75);
   EXPECT_GT(worst_near_valid, 0.70);
   EXPECT_LT(worst_bad, 0.15);
@@ -140,7 +140,7 @@ TEST(DepthAccuracy, HalfResolutionAgainstTheTrueDepth) {
       "half, worst: valid %.3f, near valid %.3f, error > 5%% within 5 m %.4f, median %.4f\n",
       worst_valid, worst_near_valid, worst_bad, worst_median);
   // Measured: valid >= 0.799, near valid >= 0.807, error > 5 % within 5 m <= 0.129, median
-  // relative error <= 0.016 (full resolution on the same poses: 0.767, 0.806, 0.091, 0.0085: half
+  // relative error <= 0.016 (full resolution on the same poses: 0.767, 0.806, 0.091, 0.0086: half
   // the disparity resolution, about twice the error).
   EXPECT_GT(worst_valid, 0.75);
   EXPECT_GT(worst_near_valid, 0.75);

@@ -202,9 +202,11 @@ struct StereoCameraOptions {
 /// surface carries a procedural texture, a tile of value noise in surface coordinates (seven
 /// octaves, cells of 2 cm up to 1.28 m, repeating every 10.24 m) at the surface's own offset,
 /// that depends on the surface point only, so both cameras see the same texture; there is no
-/// lighting. A pixel samples the texture at its centre ray's hit, low-pass filtered to the
-/// pixel's footprint there by mip-mapping, rather than supersampled: one ray per pixel instead
-/// of four, and no aliasing along the rows, where the two cameras sample the surface at
+/// lighting. The texture is stored in 16-bit texels, within 1/128 gray level of the exact noise.
+/// A pixel samples the texture at its centre ray's hit, low-pass filtered to the pixel's footprint
+/// there by mip-mapping (from the mip level nearest the footprint, blended with the next one in
+/// the middle quarter of the octave between them), rather than supersampled: one ray per pixel
+/// instead of four, and no aliasing along the rows, where the two cameras sample the surface at
 /// different points. The footprint is the one along the row: along a column both cameras sample
 /// the same epipolar plane, so whatever aliasing there is, they share.
 class StereoRenderer {
@@ -241,12 +243,24 @@ class StereoRenderer {
 
  private:
   void renderCamera(const Pose& world_T_camera, std::vector<uint8_t>& image) const;
-  // How far a pixel's hit moves on the surface it sees per pixel along the row [m], for a ray
-  // along unit_dir and the image's x axis image_right (both in the world frame).
-  double pixelFootprint(const SurfaceHit& hit, const Eigen::Vector3d& unit_dir, double range,
-                        const Eigen::Vector3d& image_right) const;
+  // Shades one line of pixels that castImage cast (stereo_texture.cc): pixels[k * stride] sees
+  // the hit hits[k] at ranges[k] along the unit ray dirs[k], or nothing (left as it is) at
+  // RayCaster::kNoHit; image_right is the image's x axis, all in the world frame.
+  void shadeLine(std::span<const Eigen::Vector3d> dirs, std::span<const double> ranges,
+                 std::span<const SurfaceHit> hits, const Eigen::Vector3d& image_right,
+                 uint8_t* pixels, size_t stride) const;
 
-  std::vector<Cylinder> cylinders_;  // the texture's surface coordinates on cylinder sides
+  // How one surface shows the texture: its offset in the tile [texels] and mean gray level; on
+  // a cylinder side also the axis and the texels per quarter turn around it (stereo_texture.cc).
+  struct SurfaceTexture {
+    double offset_x = 0, offset_y = 0;
+    double mean = 0;
+    double axis_x = 0, axis_y = 0, inverse_radius = 0, texels_per_quarter_turn = 0;
+  };
+  // The ground's, the four walls', then each cylinder's side and cap, in that order.
+  static std::vector<SurfaceTexture> surfaceTextures(const std::vector<Cylinder>& cylinders);
+
+  std::vector<SurfaceTexture> surface_textures_;
   RayCaster caster_;
   StereoCameraOptions options_;
   PinholeCamera camera_;
