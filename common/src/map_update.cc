@@ -77,8 +77,10 @@ map_block_t encodeBlock(const Block<Voxel>& block, bool compress) {
   return msg;
 }
 
+// Decodes one block, into a block taken from `spare` when it has one (every voxel is written).
 template <class Voxel>
-Expected<std::unique_ptr<Block<Voxel>>> decodeBlock(const map_block_t& msg) {
+Expected<std::unique_ptr<Block<Voxel>>> decodeBlock(
+    const map_block_t& msg, std::vector<std::unique_ptr<Block<Voxel>>>* spare) {
   // Built only for an error: this runs for every block of every map message.
   const auto where = [&msg] {
     return "block [" + std::to_string(msg.index[0]) + ", " + std::to_string(msg.index[1]) + ", " +
@@ -108,7 +110,15 @@ Expected<std::unique_ptr<Block<Voxel>>> decodeBlock(const map_block_t& msg) {
   } else {
     return unexpected(where() + "unknown compression " + std::to_string(msg.compression));
   }
-  auto block = std::make_unique<Block<Voxel>>(BlockIndex(msg.index[0], msg.index[1], msg.index[2]));
+  const BlockIndex index(msg.index[0], msg.index[1], msg.index[2]);
+  std::unique_ptr<Block<Voxel>> block;
+  if (spare != nullptr && !spare->empty()) {
+    block = std::move(spare->back());
+    spare->pop_back();
+    block->index = index;
+  } else {
+    block = std::make_unique<Block<Voxel>>(index);
+  }
   for (Voxel& voxel : block->voxels) {
     if (const char* error = decodeVoxel(in, voxel)) return unexpected(where() + error);
   }
@@ -218,13 +228,14 @@ Expected<MapUpdatePart<Voxel>> decodeHeader(const map_update_t& msg) {
 }
 
 template <class Voxel>
-std::optional<std::string> decodeBlocks(const map_update_t& msg, MapUpdatePart<Voxel>& part) {
+std::optional<std::string> decodeBlocks(const map_update_t& msg, MapUpdatePart<Voxel>& part,
+                                        std::vector<std::unique_ptr<Block<Voxel>>>* spare) {
   std::set<std::array<int32_t, 3>> seen;
   for (const map_block_t& block_msg : msg.blocks) {
     if (!seen.insert({block_msg.index[0], block_msg.index[1], block_msg.index[2]}).second) {
       return "a block appears twice";
     }
-    auto block = decodeBlock<Voxel>(block_msg);
+    auto block = decodeBlock<Voxel>(block_msg, spare);
     if (!block) return block.error();
     part.blocks.push_back(std::move(*block));
   }
@@ -237,7 +248,7 @@ template <class Voxel>
 Expected<MapUpdatePart<Voxel>> decodeMapUpdate(const map_update_t& msg) {
   auto part = decodeHeader<Voxel>(msg);
   if (!part) return part;
-  if (auto error = decodeBlocks(msg, *part)) return unexpected(*error);
+  if (auto error = decodeBlocks<Voxel>(msg, *part, nullptr)) return unexpected(*error);
   return part;
 }
 
@@ -266,7 +277,7 @@ typename MapMirror<Voxel>::Result MapMirror<Voxel>::apply(const map_update_t& ms
     return {Outcome::kIgnored,
             "a snapshot of revision " + std::to_string(r.revision) + ", which the mirror has"};
   }
-  if (auto error = decodeBlocks(msg, part)) return {Outcome::kRefused, *error};
+  if (auto error = decodeBlocks(msg, part, &spare_blocks_)) return {Outcome::kRefused, *error};
   // A part of another revision means the one being received lost a part: drop it. A lost delta
   // shows up as a gap when the next one arrives.
   if (header_ &&
@@ -295,10 +306,18 @@ template <class Voxel>
 typename MapMirror<Voxel>::Result MapMirror<Voxel>::applyComplete() {
   const MapRevision r = header_->revision;
   if (r.full_snapshot) layer_ = std::make_unique<Layer<Voxel>>(header_->voxel_size);
+  size_t blocks = 0;
+  const auto keep = [this](std::unique_ptr<Block<Voxel>> block) {
+    if (block) spare_blocks_.push_back(std::move(block));
+  };
   for (auto& [index, part] : parts_) {
-    for (std::unique_ptr<Block<Voxel>>& block : part.blocks) layer_->insertBlock(std::move(block));
-    for (const BlockIndex& removed : part.removed) layer_->removeBlock(removed);
+    blocks += part.blocks.size();
+    for (std::unique_ptr<Block<Voxel>>& block : part.blocks) {
+      keep(layer_->insertBlock(std::move(block)));
+    }
+    for (const BlockIndex& removed : part.removed) keep(layer_->releaseBlock(removed));
   }
+  if (spare_blocks_.size() > blocks) spare_blocks_.resize(blocks);
   header_.reset();
   parts_.clear();
   map_id_ = r.map_id;

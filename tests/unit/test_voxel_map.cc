@@ -1,7 +1,9 @@
 // The voxel map core: indexing, ESDF queries against analytic fields, serialization and the
 // mirror's revision logic.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -36,6 +38,16 @@ TEST(VoxelLayer, IndexesVoxelsAndBlocksAcrossTheOrigin) {
   EXPECT_EQ(layer.memoryBytes(), sizeof(Block<TsdfVoxel>));
   layer.allocateBlock({-1, 0, 0});
   EXPECT_EQ(layer.blockIndices(), (std::vector<BlockIndex>{{-1, 0, 0}, {0, 0, 0}}));
+  // Inserting over a block and releasing one hand the block over.
+  auto replacement = std::make_unique<Block<TsdfVoxel>>(BlockIndex(-1, 0, 0));
+  Block<TsdfVoxel>* const inserted = replacement.get();
+  const Block<TsdfVoxel>* const replaced = layer.block({-1, 0, 0});
+  EXPECT_EQ(layer.insertBlock(std::move(replacement)).get(), replaced);
+  EXPECT_EQ(layer.block({-1, 0, 0}), inserted);
+  EXPECT_EQ(layer.insertBlock(std::make_unique<Block<TsdfVoxel>>(BlockIndex(3, 0, 0))), nullptr);
+  EXPECT_EQ(layer.releaseBlock({3, 0, 0})->index, BlockIndex(3, 0, 0));
+  EXPECT_EQ(layer.releaseBlock({3, 0, 0}), nullptr);
+  EXPECT_EQ(layer.block({3, 0, 0}), nullptr);
   EXPECT_TRUE(layer.removeBlock({0, 0, 0}));
   EXPECT_FALSE(layer.removeBlock({0, 0, 0}));
   EXPECT_THROW(TsdfLayer(0), std::invalid_argument);
@@ -304,6 +316,46 @@ TEST(MapMirror, AppliesDeltasInOrderAndHealsGapsWithASnapshot) {
   const auto again = mirror.apply(delta(1, {})[0]);
   EXPECT_EQ(again.outcome, Outcome::kNeedSnapshot);
   EXPECT_EQ(again.reason, "the mapper restarted");
+}
+
+// The mirror decodes new blocks into the memory of blocks it let go of: after many revisions of
+// changed, added and removed blocks, sent in several parts, it still holds exactly the mapper's
+// layer, nothing of a block's earlier contents left over.
+TEST(MapMirror, FollowsManyRevisionsThroughRecycledBlocks) {
+  TsdfLayer mapper = randomTsdf(8, 30);
+  MapMirror<TsdfVoxel> mirror;
+  for (const auto& part : encodeMapUpdate(mapper, {1, 1, 1, true}, {}, {})) mirror.apply(part);
+  std::mt19937_64 rng(9);
+  std::uniform_int_distribution<int> index(-4, 4);
+  std::uniform_real_distribution<float> distance(-0.4f, 0.4f), weight(0, 50);
+  for (int64_t revision = 2; revision < 40; ++revision) {
+    std::vector<BlockIndex> changed, removed;
+    for (int k = 0; k < 6; ++k) {
+      const BlockIndex b(index(rng), index(rng), index(rng));
+      if (std::find(changed.begin(), changed.end(), b) != changed.end() ||
+          std::find(removed.begin(), removed.end(), b) != removed.end()) {
+        continue;
+      }
+      if (k % 3 == 2 && mapper.block(b) != nullptr) {
+        mapper.removeBlock(b);
+        removed.push_back(b);
+        continue;
+      }
+      // Half the voxels of a changed block keep their values, so stale ones would show.
+      Block<TsdfVoxel>& block = mapper.allocateBlock(b);
+      for (size_t i = revision % 2; i < block.voxels.size(); i += 2) {
+        block.voxels[i] = {distance(rng), weight(rng)};
+      }
+      changed.push_back(b);
+    }
+    MapMirror<TsdfVoxel>::Outcome last = MapMirror<TsdfVoxel>::Outcome::kRefused;
+    for (const auto& part :
+         encodeMapUpdate(mapper, {revision, 1, revision, false}, changed, removed, 70 * 1024)) {
+      last = mirror.apply(part).outcome;
+    }
+    ASSERT_EQ(last, MapMirror<TsdfVoxel>::Outcome::kApplied) << "revision " << revision;
+    ASSERT_TRUE(identicalLayers(*mirror.layer(), mapper)) << "revision " << revision;
+  }
 }
 
 TEST(MapMirror, ALostPartDropsTheRevision) {

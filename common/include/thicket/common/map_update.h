@@ -117,6 +117,9 @@ class MapMirror {
   Result applyComplete();
 
   std::unique_ptr<Layer<Voxel>> layer_;
+  // Blocks the layer let go of (replaced or removed), whose memory the next revision's blocks are
+  // decoded into instead of fresh, zeroed allocations; at most as many as the last revision had.
+  std::vector<std::unique_ptr<Block<Voxel>>> spare_blocks_;
   int64_t map_id_ = 0;
   int64_t revision_ = -1;
   int64_t utime_ = 0;

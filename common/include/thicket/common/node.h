@@ -91,6 +91,9 @@ class Node {
   std::map<std::string, int64_t> bad_counts_;
   int64_t publish_failures_ = 0;
   std::string last_error_;
+  // publish()'s encoding buffer, kept between calls: a map update or an image is hundreds of
+  // kilobytes, which a fresh buffer per message allocates and zeroes first.
+  std::vector<uint8_t> publish_buffer_;
 };
 
 // ---- implementation of the templates ----
@@ -138,11 +141,16 @@ bool Node::publish(const std::string& channel, const Msg& msg) {
     return publishFailed(channel, std::string("cannot encode ") + Msg::getTypeName() +
                                       ": its encoded size overflows");
   }
-  std::vector<uint8_t> buffer(static_cast<size_t>(size));
+  // Grown as needed; a buffer over 4 MiB is given back once a message needs under a quarter of it.
+  std::vector<uint8_t>& buffer = publish_buffer_;
+  if (buffer.size() > (size_t{4} << 20) && static_cast<size_t>(size) * 4 < buffer.size()) {
+    std::vector<uint8_t>().swap(buffer);
+  }
+  if (buffer.size() < static_cast<size_t>(size)) buffer.resize(static_cast<size_t>(size));
   if (msg.encode(buffer.data(), 0, size) != size) {
     return publishFailed(channel, std::string("cannot encode ") + Msg::getTypeName());
   }
-  return publishRaw(channel, buffer.data(), buffer.size());
+  return publishRaw(channel, buffer.data(), static_cast<size_t>(size));
 }
 
 }  // namespace thicket

@@ -159,12 +159,21 @@ class Layer {
     if (!slot) slot = std::make_unique<BlockType>(b);
     return *slot;
   }
-  /// Adds a whole block, replacing any block at its index.
-  void insertBlock(std::unique_ptr<BlockType> block) {
+  /// Adds a whole block, replacing any block at its index; the replaced block, or nullptr.
+  std::unique_ptr<BlockType> insertBlock(std::unique_ptr<BlockType> block) {
     const BlockIndex index = block->index;
-    blocks_[index] = std::move(block);
+    std::swap(blocks_[index], block);
+    return block;
   }
   bool removeBlock(const BlockIndex& b) { return blocks_.erase(b) > 0; }
+  /// Removes the block at b and hands it over, or nullptr when there is none.
+  std::unique_ptr<BlockType> releaseBlock(const BlockIndex& b) {
+    const auto it = blocks_.find(b);
+    if (it == blocks_.end()) return nullptr;
+    std::unique_ptr<BlockType> block = std::move(it->second);
+    blocks_.erase(it);
+    return block;
+  }
   void clear() { blocks_.clear(); }
 
   /// The voxel, or nullptr when its block is not allocated.
