@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -144,6 +145,27 @@ TEST_F(MotionNeighbors, OrdersDistancesThatDifferOnlyInTheirLastBits) {
   std::vector<int> nearest_first;
   for (int i = 100; i >= 1; --i) nearest_first.push_back(i);
   EXPECT_EQ(got, nearest_first);
+}
+
+TEST_F(MotionNeighbors, KeepsTheNearestKWhateverTheRangeOfDistances) {
+  // Distances from 2^-60 to 2^60 m (far more than the histogram's 64 octaves), a few of them
+  // repeated, inserted in a shuffled order: every k gives the brute force's k nearest, whether
+  // the k-th lies in one of the histogram's narrow buckets or in the last that holds the rest.
+  points_ = {Eigen::Vector3d::Zero()};
+  for (int e = -60; e <= 60; ++e) {
+    for (const double m : {1.0, 1.03, 1.5}) points_.emplace_back(m * std::ldexp(1.0, e), 0, 0);
+    if (e % 7 == 0) points_.emplace_back(0, std::ldexp(1.0, e), 0);  // a tie with (2^e, 0, 0)
+  }
+  std::vector<int> elements;
+  for (int i = 1; i < static_cast<int>(points_.size()); ++i) elements.push_back(i);
+  std::shuffle(elements.begin(), elements.end(), std::mt19937_64(7));
+  Neighbors nn(TablePosition{&points_});
+  for (const int i : elements) nn.add(i);
+  std::vector<int> got;
+  for (size_t k = 0; k <= elements.size(); k += 5) {
+    nn.nearestK(0, k, got);
+    EXPECT_EQ(got, bruteForce(elements, 0, k, std::numeric_limits<double>::infinity())) << k;
+  }
 }
 
 TEST_F(MotionNeighbors, RemoveDropsTheLastCopyAndItsPosition) {
