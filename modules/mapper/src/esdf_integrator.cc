@@ -41,8 +41,11 @@ uint8_t sideOf(uint8_t cls) {
 // The 26 neighbour directions, z slowest and x fastest, (0, 0, 0) left out: so the opposite of
 // direction d is 25 - d. A voxel's neighbours depend on where it lies in its block along each
 // axis (0: the first layer, 1: between, 2: the last), its class x + 3 y + 9 z: per class and
-// direction, the neighbour's block as a slot in BlockNode::neighbours (13: the voxel's own) and
-// its offset from the voxel's linear index into that block.
+// direction, the neighbour's block as a slot in BlockNode::neighbours (kMiddle: the voxel's own)
+// and its offset from the voxel's linear index into that block.
+// The middle of 3 x 3 x 3 (x = y = z = 1): among position classes, the voxels all of whose
+// neighbours lie in their block; among a block's neighbour slots, the block itself.
+constexpr int kMiddle = 13;
 struct Neighbourhood {
   std::array<int, 26> steps{};  // non-zero components: the edge is sqrt(steps) voxels long
   std::array<std::array<uint8_t, 26>, 27> slot{};
@@ -165,7 +168,7 @@ struct BlockNode {
   // none: the stand-in for blocks that are not allocated.
   BlockNode(const BlockIndex& block_index, BlockNode* none) : index(block_index) {
     neighbours.fill(none);
-    neighbours[13] = this;
+    neighbours[kMiddle] = this;
     parent.fill(kNoParent);
   }
   BlockIndex index;
@@ -211,7 +214,7 @@ inline int positionClass(int lin) {
 
 // Whether voxel lin has all 26 neighbours in its block (the class of the middle along every axis).
 inline bool interior(int lin) {
-  return positionClass(lin) == 13;
+  return positionClass(lin) == kMiddle;
 }
 
 // Whether a free or inside voxel may be among the neighbours of voxel lin: false skips the scan
@@ -231,9 +234,9 @@ inline bool nearPropagating(const BlockNode* node, int lin) {
 template <class F>
 inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
   const int c = positionClass(lin);
-  if (c == 13) {
+  if (c == kMiddle) {
 #pragma GCC unroll 26
-    for (int d = 0; d < 26; ++d) f(d, node, lin + kNeighbours.offset[13][d]);
+    for (int d = 0; d < 26; ++d) f(d, node, lin + kNeighbours.offset[kMiddle][d]);
     return;
   }
   const std::array<uint8_t, 26>& slot = kNeighbours.slot[c];
@@ -543,7 +546,7 @@ class EsdfIntegrator::Impl {
     auto owned = std::make_unique<BlockNode>(b, none_.get());
     BlockNode* node = owned.get();
     for (int i = 0; i < 27; ++i) {
-      if (i == 13) continue;
+      if (i == kMiddle) continue;
       BlockNode* other = find(b + BlockIndex(i % 3 - 1, i / 3 % 3 - 1, i / 9 - 1));
       if (other == nullptr) continue;
       node->neighbours[i] = other;
@@ -568,7 +571,7 @@ class EsdfIntegrator::Impl {
 
   void erase(BlockNode* node) {
     for (int i = 0; i < 27; ++i) {
-      if (i != 13 && node->neighbours[i] != none_.get()) {
+      if (i != kMiddle && node->neighbours[i] != none_.get()) {
         node->neighbours[i]->neighbours[26 - i] = none_.get();
       }
     }

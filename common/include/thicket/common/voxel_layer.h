@@ -165,7 +165,8 @@ class Layer {
     std::swap(blocks_[index], block);
     return block;
   }
-  bool removeBlock(const BlockIndex& b) { return blocks_.erase(b) > 0; }
+  /// Removes the block at b; whether there was one.
+  bool removeBlock(const BlockIndex& b) { return releaseBlock(b) != nullptr; }
   /// Removes the block at b and hands it over, or nullptr when there is none.
   std::unique_ptr<BlockType> releaseBlock(const BlockIndex& b) {
     const auto it = blocks_.find(b);
