@@ -6,6 +6,9 @@
 #include <cstring>
 #include <optional>
 #include <set>
+#include <stdexcept>
+#include <string>
+#include <utility>
 
 #include "thicket/common/compression.h"
 
@@ -63,11 +66,24 @@ const char* decodeVoxel(const uint8_t*& in, EsdfVoxel& voxel) {
   return nullptr;
 }
 
+// The changes format's set of voxels on the wire: its 256 rows as little-endian uint16.
+constexpr size_t kSetBytes = sizeof(BlockVoxels::rows);
+
+// One block's payload: every voxel, or (changes format) the set `voxels` and its voxels.
 template <class Voxel>
-map_block_t encodeBlock(const Block<Voxel>& block, bool compress) {
-  std::vector<uint8_t> raw(kVoxelsPerBlock * VoxelWire<Voxel>::kBytes);
+map_block_t encodeBlock(const Block<Voxel>& block, const BlockVoxels* voxels, bool compress) {
+  const size_t bytes = voxels != nullptr ? kSetBytes + static_cast<size_t>(voxels->count()) *
+                                                           VoxelWire<Voxel>::kBytes
+                                         : kVoxelsPerBlock * VoxelWire<Voxel>::kBytes;
+  std::vector<uint8_t> raw(bytes);
   uint8_t* out = raw.data();
-  for (const Voxel& voxel : block.voxels) encodeVoxel(voxel, out);
+  if (voxels != nullptr) {
+    std::memcpy(out, voxels->rows.data(), kSetBytes);
+    out += kSetBytes;
+    voxels->forEach([&](int lin) { encodeVoxel(block.voxels[lin], out); });
+  } else {
+    for (const Voxel& voxel : block.voxels) encodeVoxel(voxel, out);
+  }
   map_block_t msg;
   for (int i = 0; i < 3; ++i) msg.index[i] = block.index[i];
   msg.compression = compress ? map_block_t::COMPRESSION_ZSTD : map_block_t::COMPRESSION_NONE;
@@ -77,39 +93,54 @@ map_block_t encodeBlock(const Block<Voxel>& block, bool compress) {
   return msg;
 }
 
-// Decodes one block, into a block taken from `spare` when it has one (every voxel is written).
+// "block [x, y, z]: ", for errors only: decoding runs for every block of every map message.
+std::string blockName(const map_block_t& msg) {
+  return "block [" + std::to_string(msg.index[0]) + ", " + std::to_string(msg.index[1]) + ", " +
+         std::to_string(msg.index[2]) + "]: ";
+}
+
+// A block's payload of raw_size bytes, within [min_size, max_size], after checking the sizes;
+// decompressed into `buffer` if need be.
+Expected<const uint8_t*> blockPayload(const map_block_t& msg, size_t min_size, size_t max_size,
+                                      std::vector<uint8_t>& buffer) {
+  if (msg.size < 0 || static_cast<size_t>(msg.size) != msg.data.size()) {
+    return unexpected(blockName(msg) + "size field " + std::to_string(msg.size) + " but " +
+                      std::to_string(msg.data.size()) + " bytes of data");
+  }
+  if (msg.raw_size < 0 || static_cast<size_t>(msg.raw_size) < min_size ||
+      static_cast<size_t>(msg.raw_size) > max_size) {
+    return unexpected(blockName(msg) + "raw size " + std::to_string(msg.raw_size) +
+                      (min_size == max_size ? ", expected " + std::to_string(min_size)
+                                            : ", outside " + std::to_string(min_size) + " to " +
+                                                  std::to_string(max_size)));
+  }
+  const size_t raw_size = static_cast<size_t>(msg.raw_size);
+  if (msg.compression == map_block_t::COMPRESSION_ZSTD) {
+    auto content = zstdDecompress(msg.data, raw_size);
+    if (!content) return unexpected(blockName(msg) + content.error());
+    buffer = std::move(*content);
+    return buffer.data();
+  }
+  if (msg.compression != map_block_t::COMPRESSION_NONE) {
+    return unexpected(blockName(msg) + "unknown compression " + std::to_string(msg.compression));
+  }
+  if (msg.data.size() != raw_size) {
+    return unexpected(blockName(msg) + std::to_string(msg.data.size()) + " bytes, expected " +
+                      std::to_string(raw_size));
+  }
+  return msg.data.data();
+}
+
+// Decodes one whole block, into a block taken from `spare` when it has one (every voxel is
+// written).
 template <class Voxel>
 Expected<std::unique_ptr<Block<Voxel>>> decodeBlock(
     const map_block_t& msg, std::vector<std::unique_ptr<Block<Voxel>>>* spare) {
-  // Built only for an error: this runs for every block of every map message.
-  const auto where = [&msg] {
-    return "block [" + std::to_string(msg.index[0]) + ", " + std::to_string(msg.index[1]) + ", " +
-           std::to_string(msg.index[2]) + "]: ";
-  };
   const size_t raw_size = kVoxelsPerBlock * VoxelWire<Voxel>::kBytes;
-  if (msg.size < 0 || static_cast<size_t>(msg.size) != msg.data.size()) {
-    return unexpected(where() + "size field " + std::to_string(msg.size) + " but " +
-                      std::to_string(msg.data.size()) + " bytes of data");
-  }
-  if (msg.raw_size < 0 || static_cast<size_t>(msg.raw_size) != raw_size) {
-    return unexpected(where() + "raw size " + std::to_string(msg.raw_size) + ", expected " +
-                      std::to_string(raw_size));
-  }
   std::vector<uint8_t> decompressed;
-  const uint8_t* in = msg.data.data();
-  if (msg.compression == map_block_t::COMPRESSION_ZSTD) {
-    auto content = zstdDecompress(msg.data, raw_size);
-    if (!content) return unexpected(where() + content.error());
-    decompressed = std::move(*content);
-    in = decompressed.data();
-  } else if (msg.compression == map_block_t::COMPRESSION_NONE) {
-    if (msg.data.size() != raw_size) {
-      return unexpected(where() + std::to_string(msg.data.size()) + " bytes, expected " +
-                        std::to_string(raw_size));
-    }
-  } else {
-    return unexpected(where() + "unknown compression " + std::to_string(msg.compression));
-  }
+  auto payload = blockPayload(msg, raw_size, raw_size, decompressed);
+  if (!payload) return unexpected(payload.error());
+  const uint8_t* in = *payload;
   const BlockIndex index(msg.index[0], msg.index[1], msg.index[2]);
   std::unique_ptr<Block<Voxel>> block;
   if (spare != nullptr && !spare->empty()) {
@@ -120,9 +151,33 @@ Expected<std::unique_ptr<Block<Voxel>>> decodeBlock(
     block = std::make_unique<Block<Voxel>>(index);
   }
   for (Voxel& voxel : block->voxels) {
-    if (const char* error = decodeVoxel(in, voxel)) return unexpected(where() + error);
+    if (const char* error = decodeVoxel(in, voxel)) return unexpected(blockName(msg) + error);
   }
   return block;
+}
+
+// Decodes one block in the changes format.
+template <class Voxel>
+Expected<BlockChanges<Voxel>> decodeChanges(const map_block_t& msg) {
+  std::vector<uint8_t> decompressed;
+  auto payload = blockPayload(msg, kSetBytes,
+                              kSetBytes + kVoxelsPerBlock * VoxelWire<Voxel>::kBytes, decompressed);
+  if (!payload) return unexpected(payload.error());
+  const uint8_t* in = *payload;
+  BlockChanges<Voxel> changes;
+  changes.index = BlockIndex(msg.index[0], msg.index[1], msg.index[2]);
+  std::memcpy(changes.voxels.rows.data(), in, kSetBytes);
+  in += kSetBytes;
+  const size_t count = static_cast<size_t>(changes.voxels.count());
+  if (static_cast<size_t>(msg.raw_size) != kSetBytes + count * VoxelWire<Voxel>::kBytes) {
+    return unexpected(blockName(msg) + "raw size " + std::to_string(msg.raw_size) + " for " +
+                      std::to_string(count) + " voxels");
+  }
+  changes.values.resize(count);
+  for (Voxel& voxel : changes.values) {
+    if (const char* error = decodeVoxel(in, voxel)) return unexpected(blockName(msg) + error);
+  }
+  return changes;
 }
 
 map_update_t emptyPart(const MapRevision& revision, int8_t layer, int8_t format,
@@ -149,23 +204,44 @@ template <class Voxel>
 std::vector<map_update_t> encodeMapUpdate(const Layer<Voxel>& layer, const MapRevision& revision,
                                           const std::vector<BlockIndex>& changed,
                                           const std::vector<BlockIndex>& removed,
-                                          size_t max_message_bytes, bool compress) {
-  std::vector<BlockIndex> blocks;
-  if (revision.full_snapshot) {
-    blocks = layer.blockIndices();
-  } else {
-    for (const BlockIndex& index : changed) {
-      if (layer.block(index) != nullptr) blocks.push_back(index);
-    }
-    std::sort(blocks.begin(), blocks.end(), indexLess);
-    blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
+                                          size_t max_message_bytes, bool compress,
+                                          const std::vector<BlockVoxels>& changed_voxels) {
+  const bool changes = !revision.full_snapshot && !changed_voxels.empty();
+  if (changes && changed_voxels.size() != changed.size()) {
+    throw std::invalid_argument("encodeMapUpdate: " + std::to_string(changed_voxels.size()) +
+                                " voxel sets for " + std::to_string(changed.size()) +
+                                " changed blocks");
   }
-  const map_update_t empty =
-      emptyPart(revision, VoxelWire<Voxel>::kLayer, VoxelWire<Voxel>::kFormat, layer.voxelSize());
+  // The blocks to send, sorted, each once, with its set of voxels (the union) in the changes
+  // format.
+  std::vector<std::pair<BlockIndex, BlockVoxels>> blocks;
+  if (revision.full_snapshot) {
+    for (const BlockIndex& index : layer.blockIndices()) blocks.push_back({index, {}});
+  } else {
+    for (size_t i = 0; i < changed.size(); ++i) {
+      if (layer.block(changed[i]) != nullptr) {
+        blocks.push_back({changed[i], changes ? changed_voxels[i] : BlockVoxels{}});
+      }
+    }
+    std::stable_sort(blocks.begin(), blocks.end(),
+                     [](const auto& a, const auto& b) { return indexLess(a.first, b.first); });
+    size_t kept = 0;
+    for (size_t i = 0; i < blocks.size(); ++i) {
+      if (kept > 0 && blocks[kept - 1].first == blocks[i].first) {
+        blocks[kept - 1].second |= blocks[i].second;
+      } else {
+        blocks[kept++] = blocks[i];
+      }
+    }
+    blocks.resize(kept);
+  }
+  const map_update_t empty = emptyPart(
+      revision, VoxelWire<Voxel>::kLayer,
+      changes ? VoxelWire<Voxel>::kChangesFormat : VoxelWire<Voxel>::kFormat, layer.voxelSize());
   std::vector<map_update_t> parts = {empty};
   size_t part_bytes = 0;
-  for (const BlockIndex& index : blocks) {
-    map_block_t block = encodeBlock(*layer.block(index), compress);
+  for (const auto& [index, voxels] : blocks) {
+    map_block_t block = encodeBlock(*layer.block(index), changes ? &voxels : nullptr, compress);
     if (part_bytes > 0 && part_bytes + block.data.size() > max_message_bytes) {
       parts.push_back(empty);
       part_bytes = 0;
@@ -197,9 +273,14 @@ Expected<MapUpdatePart<Voxel>> decodeHeader(const map_update_t& msg) {
     return unexpected("layer " + std::to_string(msg.layer) + " where " +
                       std::to_string(VoxelWire<Voxel>::kLayer) + " was expected");
   }
-  if (msg.voxel_format != VoxelWire<Voxel>::kFormat) {
+  if (msg.voxel_format != VoxelWire<Voxel>::kFormat &&
+      msg.voxel_format != VoxelWire<Voxel>::kChangesFormat) {
     return unexpected("voxel format " + std::to_string(msg.voxel_format) + " where " +
-                      std::to_string(VoxelWire<Voxel>::kFormat) + " was expected");
+                      std::to_string(VoxelWire<Voxel>::kFormat) + " or " +
+                      std::to_string(VoxelWire<Voxel>::kChangesFormat) + " was expected");
+  }
+  if (msg.voxel_format == VoxelWire<Voxel>::kChangesFormat && msg.full_snapshot) {
+    return unexpected("a full snapshot in the changes format, which needs the blocks before");
   }
   if (msg.voxels_per_side != kVoxelsPerSide) {
     return unexpected(std::to_string(msg.voxels_per_side) + " voxels per side, expected " +
@@ -234,6 +315,12 @@ std::optional<std::string> decodeBlocks(const map_update_t& msg, MapUpdatePart<V
   for (const map_block_t& block_msg : msg.blocks) {
     if (!seen.insert({block_msg.index[0], block_msg.index[1], block_msg.index[2]}).second) {
       return "a block appears twice";
+    }
+    if (msg.voxel_format == VoxelWire<Voxel>::kChangesFormat) {
+      auto changes = decodeChanges<Voxel>(block_msg);
+      if (!changes) return changes.error();
+      part.changes.push_back(std::move(*changes));
+      continue;
     }
     auto block = decodeBlock<Voxel>(block_msg, spare);
     if (!block) return block.error();
@@ -315,6 +402,11 @@ typename MapMirror<Voxel>::Result MapMirror<Voxel>::applyComplete() {
     for (std::unique_ptr<Block<Voxel>>& block : part.blocks) {
       keep(layer_->insertBlock(std::move(block)));
     }
+    for (const BlockChanges<Voxel>& changes : part.changes) {
+      Block<Voxel>& block = layer_->allocateBlock(changes.index);
+      const Voxel* value = changes.values.data();
+      changes.voxels.forEach([&](int lin) { block.voxels[lin] = *value++; });
+    }
     for (const BlockIndex& removed : part.removed) keep(layer_->releaseBlock(removed));
   }
   if (spare_blocks_.size() > blocks) spare_blocks_.resize(blocks);
@@ -349,10 +441,12 @@ map_request_t MapMirror<Voxel>::request(int64_t utime, const std::string& reques
 
 template std::vector<map_update_t> encodeMapUpdate(const Layer<TsdfVoxel>&, const MapRevision&,
                                                    const std::vector<BlockIndex>&,
-                                                   const std::vector<BlockIndex>&, size_t, bool);
+                                                   const std::vector<BlockIndex>&, size_t, bool,
+                                                   const std::vector<BlockVoxels>&);
 template std::vector<map_update_t> encodeMapUpdate(const Layer<EsdfVoxel>&, const MapRevision&,
                                                    const std::vector<BlockIndex>&,
-                                                   const std::vector<BlockIndex>&, size_t, bool);
+                                                   const std::vector<BlockIndex>&, size_t, bool,
+                                                   const std::vector<BlockVoxels>&);
 template Expected<MapUpdatePart<TsdfVoxel>> decodeMapUpdate(const map_update_t&);
 template Expected<MapUpdatePart<EsdfVoxel>> decodeMapUpdate(const map_update_t&);
 template class MapMirror<TsdfVoxel>;

@@ -187,7 +187,7 @@ TEST(MapUpdate, RawBlocksRoundTripLikeCompressedOnes) {
   for (const map_update_t& part : parts) {
     EXPECT_LE(part.getEncodedSize(), 100 * 1024 + 40 * 1024);
     for (const map_block_t& block : part.blocks) {
-      EXPECT_EQ(block.compression, map_block_t::COMPRESSION_NONE);
+      EXPECT_EQ(block.compression, int8_t{map_block_t::COMPRESSION_NONE});
       EXPECT_EQ(block.size, block.raw_size);
     }
     mirror.apply(part);
@@ -358,6 +358,129 @@ TEST(MapMirror, FollowsManyRevisionsThroughRecycledBlocks) {
   }
 }
 
+// Whether the mirror refuses `good` corrupted by `corrupt`, saying why.
+template <class Voxel>
+bool refusedWithAReason(MapMirror<Voxel>& mirror, const map_update_t& good,
+                        const std::function<void(map_update_t&)>& corrupt) {
+  map_update_t msg = good;
+  corrupt(msg);
+  const auto result = mirror.apply(msg);
+  EXPECT_FALSE(result.reason.empty());
+  return result.outcome == MapMirror<Voxel>::Outcome::kRefused;
+}
+
+// Deltas in the changes format carry only the voxels that changed, which the mirror writes over
+// its blocks (over zero voxels in a block new to it): through revisions that change scattered
+// voxels, add blocks, remove blocks and add them back, in several parts, it holds exactly the
+// mapper's layer, at a fraction of the whole blocks' bytes.
+TEST(MapMirror, FollowsDeltasThatCarryOnlyTheChangedVoxels) {
+  EsdfLayer mapper(0.2);
+  std::mt19937_64 rng(11);
+  std::uniform_int_distribution<int> index(-3, 3), voxel(0, kVoxelsPerBlock - 1);
+  std::uniform_real_distribution<float> distance(-2, 2);
+  const auto randomVoxel = [&] {
+    return EsdfVoxel{distance(rng), voxel(rng) % 2 == 0, voxel(rng) % 3 == 0};
+  };
+  for (int b = 0; b < 10; ++b) {
+    for (EsdfVoxel& v : mapper.allocateBlock({index(rng), index(rng), index(rng)}).voxels) {
+      v = randomVoxel();
+    }
+  }
+  MapMirror<EsdfVoxel> mirror;
+  for (const auto& part : encodeMapUpdate(mapper, {1, 1, 1, true}, {}, {})) mirror.apply(part);
+  std::vector<BlockIndex> removed_before;
+  for (int64_t revision = 2; revision < 40; ++revision) {
+    std::vector<BlockIndex> changed, removed;
+    std::vector<BlockVoxels> changed_voxels;
+    // Blocks removed last revision come back with a few voxels: the rest must read zero.
+    for (const BlockIndex& b : removed_before) {
+      BlockVoxels& voxels = changed_voxels.emplace_back();
+      for (int k = 0; k < 50; ++k) {
+        const int lin = voxel(rng);
+        mapper.allocateBlock(b).voxels[lin] = randomVoxel();
+        voxels.insert(lin);
+      }
+      changed.push_back(b);
+    }
+    for (int k = 0; k < 8; ++k) {
+      const BlockIndex b(index(rng), index(rng), index(rng));
+      if (std::find(changed.begin(), changed.end(), b) != changed.end()) {
+        // Listed twice: the sets' union travels. A second, separate set for the same block.
+        BlockVoxels& voxels = changed_voxels.emplace_back();
+        const int lin = voxel(rng);
+        mapper.allocateBlock(b).voxels[lin] = randomVoxel();
+        voxels.insert(lin);
+        changed.push_back(b);
+        continue;
+      }
+      if (std::find(removed.begin(), removed.end(), b) != removed.end()) continue;
+      if (k == 7 && mapper.block(b) != nullptr) {
+        mapper.removeBlock(b);
+        removed.push_back(b);
+        continue;
+      }
+      BlockVoxels& voxels = changed_voxels.emplace_back();
+      Block<EsdfVoxel>& block = mapper.allocateBlock(b);
+      for (int n = 0; n < 300; ++n) {
+        const int lin = voxel(rng);
+        block.voxels[lin] = randomVoxel();
+        voxels.insert(lin);
+      }
+      changed.push_back(b);
+    }
+    const auto parts = encodeMapUpdate(mapper, {revision, 1, revision, false}, changed, removed,
+                                       8 * 1024, revision % 2 == 0, changed_voxels);
+    MapMirror<EsdfVoxel>::Outcome last = MapMirror<EsdfVoxel>::Outcome::kRefused;
+    size_t raw_bytes = 0;
+    for (const auto& part : parts) {
+      EXPECT_EQ(part.voxel_format, int8_t{map_update_t::FORMAT_ESDF_F32_U8_CHANGES});
+      for (const map_block_t& block : part.blocks) raw_bytes += block.raw_size;
+      last = mirror.apply(part).outcome;
+    }
+    ASSERT_EQ(last, MapMirror<EsdfVoxel>::Outcome::kApplied) << "revision " << revision;
+    ASSERT_TRUE(identicalLayers(*mirror.layer(), mapper)) << "revision " << revision;
+    // A block of 300 changed voxels: 512 bytes of set and 1500 of voxels, not 20480.
+    EXPECT_LT(raw_bytes, changed.size() * 2100) << "revision " << revision;
+    removed_before = removed;
+  }
+}
+
+// The changes format names its voxels and must carry exactly as many, and only as a delta.
+TEST(MapMirror, RefusesMalformedChanges) {
+  using Outcome = MapMirror<EsdfVoxel>::Outcome;
+  EsdfLayer layer(0.2);
+  layer.allocateBlock({0, 0, 0}).voxels.fill({1.0f, true, false});
+  MapMirror<EsdfVoxel> mirror;
+  for (const auto& part : encodeMapUpdate(layer, {1, 1, 1, true}, {}, {})) mirror.apply(part);
+  layer.block({0, 0, 0})->voxels[7] = {1.5f, true, true};  // 0x3fc00000
+  BlockVoxels voxels;
+  voxels.insert(7);
+  const map_update_t good =
+      encodeMapUpdate(layer, {2, 1, 2, false}, {{0, 0, 0}}, {}, 1 << 20, false, {voxels})[0];
+  ASSERT_EQ(good.blocks[0].raw_size, 512 + 5);
+  const auto refused = [&](const std::function<void(map_update_t&)>& corrupt) {
+    return refusedWithAReason(mirror, good, corrupt);
+  };
+  EXPECT_TRUE(refused([](map_update_t& m) { m.full_snapshot = true; }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.blocks[0].data[0] |= 1; }));  // two voxels named
+  EXPECT_TRUE(refused([](map_update_t& m) {  // one named, none carried
+    m.blocks[0].data.resize(512);
+    m.blocks[0].size = m.blocks[0].raw_size = 512;
+  }));
+  EXPECT_TRUE(refused([](map_update_t& m) { m.blocks[0].data[512 + 3] = 0x7f; }));  // NaN
+  EXPECT_TRUE(refused([](map_update_t& m) { m.blocks[0].data[512 + 4] = 0x04; }));  // flag bits
+  EXPECT_TRUE(refused([](map_update_t& m) {  // under the set's own bytes
+    m.blocks[0].data.resize(100);
+    m.blocks[0].size = m.blocks[0].raw_size = 100;
+  }));
+  EXPECT_EQ(mirror.layer()->block({0, 0, 0})->voxels[7].distance, 1.0f);
+  EXPECT_EQ(mirror.apply(good).outcome, Outcome::kApplied);
+  EXPECT_TRUE(identicalLayers(*mirror.layer(), layer));
+  EXPECT_THROW(
+      encodeMapUpdate(layer, {3, 1, 3, false}, {{0, 0, 0}}, {}, 1 << 20, false, {voxels, voxels}),
+      std::invalid_argument);
+}
+
 TEST(MapMirror, ALostPartDropsTheRevision) {
   using Outcome = MapMirror<TsdfVoxel>::Outcome;
   const TsdfLayer big = randomTsdf(5, 40);
@@ -382,11 +505,7 @@ TEST(MapMirror, RefusesMalformedMessagesWithoutChangingTheMap) {
   for (const auto& part : encodeMapUpdate(layer, {1, 1, 1, true}, {}, {})) mirror.apply(part);
   const map_update_t good = encodeMapUpdate(layer, {2, 1, 2, false}, layer.blockIndices(), {})[0];
   const auto refused = [&](const std::function<void(map_update_t&)>& corrupt) {
-    map_update_t msg = good;
-    corrupt(msg);
-    const auto result = mirror.apply(msg);
-    EXPECT_FALSE(result.reason.empty());
-    return result.outcome == Outcome::kRefused;
+    return refusedWithAReason(mirror, good, corrupt);
   };
   EXPECT_TRUE(refused([](map_update_t& m) { m.layer = map_update_t::LAYER_ESDF; }));
   EXPECT_TRUE(refused([](map_update_t& m) { m.voxel_format = 7; }));

@@ -178,10 +178,13 @@ std::vector<int64_t> MapperNode::integrateReady() {
       continue;
     }
     // Every revision goes out on both layers, even without changes, so that mirrors see no gap.
+    // The ESDF's deltas carry only the voxels that changed (a frame changes about a tenth of the
+    // voxels of the blocks it touches); the TSDF's whole blocks, since its integrator reports the
+    // voxels the ESDF reads, not weight changes.
     publishLayer("MAP_TSDF", mapper_.tsdf(), update->utime, update->revision, false,
                  update->tsdf_changed, {});
     publishLayer("MAP_ESDF", mapper_.esdf(), update->utime, update->revision, false,
-                 update->esdf_changed, update->esdf_removed);
+                 update->esdf_changed, update->esdf_removed, update->esdf_changed_voxels);
     tsdf_ms_.push_back(update->tsdf_ms);
     esdf_ms_.push_back(update->esdf_ms);
     module_timing_t timing;
@@ -242,11 +245,12 @@ template <class Voxel>
 void MapperNode::publishLayer(const std::string& channel, const Layer<Voxel>& layer, int64_t utime,
                               int64_t revision, bool full_snapshot,
                               const std::vector<BlockIndex>& changed,
-                              const std::vector<BlockIndex>& removed) {
+                              const std::vector<BlockIndex>& removed,
+                              const std::vector<BlockVoxels>& changed_voxels) {
   const MapRevision header{utime, map_id_, revision, full_snapshot};
   for (const map_update_t& part : encodeMapUpdate(
            layer, header, changed, removed, static_cast<size_t>(options_.max_message_kib) * 1024,
-           options_.compress_blocks)) {
+           options_.compress_blocks, changed_voxels)) {
     publish(channel, part);
   }
 }

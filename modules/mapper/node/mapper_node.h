@@ -83,7 +83,8 @@ class MapperNode : public Node {
   template <class Voxel>
   void publishLayer(const std::string& channel, const Layer<Voxel>& layer, int64_t utime,
                     int64_t revision, bool full_snapshot, const std::vector<BlockIndex>& changed,
-                    const std::vector<BlockIndex>& removed);
+                    const std::vector<BlockIndex>& removed,
+                    const std::vector<BlockVoxels>& changed_voxels = {});
 
   MapperNodeOptions options_;
   int64_t map_id_;

@@ -179,6 +179,7 @@ struct BlockNode {
   int known = 0;        // voxels that are not unknown; the ESDF block exists exactly when known > 0
   int propagating = 0;  // free and inside voxels
   uint64_t changed_in_call = 0;
+  BlockVoxels changed;  // the voxels changed in the call (valid while it writes them out)
   EsdfLayer::BlockType* out = nullptr;  // valid while a call writes its changes out
   // Per voxel, and one element more: a row of three neighbours is read as four at once, the
   // fourth up to one past the last voxel (kRowStarts).
@@ -385,7 +386,7 @@ class EsdfIntegrator::Impl {
     }
     if (previous != position) sphereMoved(tsdf, previous);
     propagate(/*incremental=*/true);
-    EsdfUpdateResult result = finish(esdf);
+    EsdfUpdateResult result = finish(esdf, /*whole_blocks=*/false);
     built_ = true;
     return result;
   }
@@ -481,7 +482,7 @@ class EsdfIntegrator::Impl {
     }
     propagate(/*incremental=*/false);
 
-    EsdfUpdateResult result = finish(esdf);
+    EsdfUpdateResult result = finish(esdf, /*whole_blocks=*/true);
     built_ = true;
     for (const BlockIndex& b : before) {
       if (esdf.block(b) == nullptr) result.removed_blocks.push_back(b);
@@ -1008,8 +1009,9 @@ class EsdfIntegrator::Impl {
     }
   }
 
-  // Writes the voxels that changed to esdf, allocating and removing blocks, and reports them.
-  EsdfUpdateResult finish(EsdfLayer& esdf) {
+  // Writes the voxels that changed to esdf, allocating and removing blocks, and reports them, with
+  // the voxels that changed per block (whole_blocks: all, as after a rebuild from empty).
+  EsdfUpdateResult finish(EsdfLayer& esdf, bool whole_blocks) {
     EsdfUpdateResult result;
     for (const Touched& t : touched_) {
       uint8_t& state = t.node->state[t.lin];
@@ -1021,9 +1023,13 @@ class EsdfIntegrator::Impl {
       ++result.voxels_updated;
       if (t.node->changed_in_call != call_) {
         t.node->changed_in_call = call_;
+        t.node->changed = BlockVoxels{};
         changed_nodes_.push_back(t.node);
       }
+      t.node->changed.insert(t.lin);
     }
+    std::sort(changed_nodes_.begin(), changed_nodes_.end(),
+              [](const BlockNode* a, const BlockNode* b) { return indexLess(a->index, b->index); });
     for (BlockNode* node : changed_nodes_) {
       if (node->known == 0) {
         esdf.removeBlock(node->index);
@@ -1032,6 +1038,7 @@ class EsdfIntegrator::Impl {
       } else {
         node->out = &esdf.allocateBlock(node->index);
         result.changed_blocks.push_back(node->index);
+        result.changed_voxels.push_back(whole_blocks ? BlockVoxels::all() : node->changed);
       }
     }
     for (const Touched& t : touched_) {
@@ -1042,8 +1049,6 @@ class EsdfIntegrator::Impl {
     for (BlockNode* node : changed_nodes_) {
       if (node->known == 0) erase(node);
     }
-    std::sort(result.changed_blocks.begin(), result.changed_blocks.end(), indexLess);
-    std::sort(result.removed_blocks.begin(), result.removed_blocks.end(), indexLess);
     return result;
   }
 

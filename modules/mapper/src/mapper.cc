@@ -151,6 +151,7 @@ std::vector<FrameOutcome> Mapper::integrateReady(std::vector<MapRevisionUpdate>&
     update.tsdf_ms = integrated - start;
     update.tsdf_changed = std::move(tsdf.changed_blocks);
     update.esdf_changed = std::move(esdf.changed_blocks);
+    update.esdf_changed_voxels = std::move(esdf.changed_voxels);
     update.esdf_removed = std::move(esdf.removed_blocks);
     update.revision = ++revision_;
     utime_ = frame.utime;

@@ -22,6 +22,7 @@
 namespace {
 
 using thicket::BlockIndex;
+using thicket::BlockVoxels;
 using thicket::EsdfLayer;
 using thicket::EsdfVoxel;
 using thicket::indexLess;
@@ -133,14 +134,16 @@ void observe(TsdfLayer& tsdf, const World& world, const Box& box, double truncat
 // A byte copy of a layer, to see exactly which blocks a call changed.
 using Snapshot = std::map<std::array<int, 3>, std::vector<uint64_t>>;
 
+uint64_t snapshot(const EsdfVoxel& v) {
+  return uint64_t{std::bit_cast<uint32_t>(v.distance)} << 2 | uint64_t{v.observed} << 1 |
+         uint64_t{v.fixed};
+}
+
 Snapshot snapshot(const EsdfLayer& layer) {
   Snapshot s;
   for (const BlockIndex& index : layer.blockIndices()) {
     std::vector<uint64_t>& bytes = s[{index.x(), index.y(), index.z()}];
-    for (const EsdfVoxel& v : layer.block(index)->voxels) {
-      bytes.push_back(uint64_t{std::bit_cast<uint32_t>(v.distance)} << 2 |
-                      uint64_t{v.observed} << 1 | uint64_t{v.fixed});
-    }
+    for (const EsdfVoxel& v : layer.block(index)->voxels) bytes.push_back(snapshot(v));
   }
   return s;
 }
@@ -153,17 +156,29 @@ std::vector<BlockIndex> toIndices(const std::vector<std::array<int, 3>>& keys) {
 }
 
 // The result reports exactly the blocks that differ between the snapshots.
+// The report of an incremental update names exactly the blocks that changed or went, and in each
+// changed block exactly the voxels that differ from before (from the zero voxel in a new block),
+// which is all the map's deltas carry.
 void expectReportMatches(const Snapshot& before, const Snapshot& after,
                          const EsdfUpdateResult& result) {
   std::vector<std::array<int, 3>> changed, removed;
+  std::vector<BlockVoxels> changed_voxels;
   for (const auto& [key, bytes] : after) {
     const auto it = before.find(key);
-    if (it == before.end() || it->second != bytes) changed.push_back(key);
+    if (it != before.end() && it->second == bytes) continue;
+    changed.push_back(key);
+    BlockVoxels& voxels = changed_voxels.emplace_back();
+    for (int i = 0; i < kVoxelsPerBlock; ++i) {
+      if (bytes[i] != (it != before.end() ? it->second[i] : snapshot(EsdfVoxel{}))) {
+        voxels.insert(i);
+      }
+    }
   }
   for (const auto& [key, bytes] : before) {
     if (!after.count(key)) removed.push_back(key);
   }
   EXPECT_EQ(result.changed_blocks, toIndices(changed));
+  EXPECT_TRUE(result.changed_voxels == changed_voxels);
   EXPECT_EQ(result.removed_blocks, toIndices(removed));
   EXPECT_EQ(result.voxels_updated > 0, !changed.empty() || !removed.empty());
 }
@@ -301,7 +316,11 @@ Snapshot runRandomSequence(uint64_t seed, int steps, bool check) {
   EsdfIntegrator reference(options);
   reference.setInitialPosition(position);
   EsdfLayer esdf(vs);
-  integrator.update(tsdf, changed, position, esdf);
+  // The first update builds from scratch: a mirror must take its blocks whole.
+  const EsdfUpdateResult first = integrator.update(tsdf, changed, position, esdf);
+  EXPECT_FALSE(first.changed_blocks.empty());
+  EXPECT_EQ(first.changed_voxels.size(), first.changed_blocks.size());
+  for (const BlockVoxels& voxels : first.changed_voxels) EXPECT_TRUE(voxels == BlockVoxels::all());
 
   for (int step = 0; step < steps; ++step) {
     changed.clear();

@@ -26,12 +26,14 @@ template <>
 struct VoxelWire<TsdfVoxel> {
   static constexpr int8_t kLayer = map_update_t::LAYER_TSDF;
   static constexpr int8_t kFormat = map_update_t::FORMAT_TSDF_F32_F32;
+  static constexpr int8_t kChangesFormat = map_update_t::FORMAT_TSDF_F32_F32_CHANGES;
   static constexpr size_t kBytes = 8;  // float32 distance, float32 weight
 };
 template <>
 struct VoxelWire<EsdfVoxel> {
   static constexpr int8_t kLayer = map_update_t::LAYER_ESDF;
   static constexpr int8_t kFormat = map_update_t::FORMAT_ESDF_F32_U8;
+  static constexpr int8_t kChangesFormat = map_update_t::FORMAT_ESDF_F32_U8_CHANGES;
   static constexpr size_t kBytes = 5;  // float32 distance, uint8 flags (observed, fixed)
 };
 
@@ -52,12 +54,25 @@ constexpr size_t kDefaultMaxMessageBytes = 256 * 1024;
 /// ignores both lists. Always at least one message, so that a revision without changes still
 /// advances the mirrors. Blocks are zstd-compressed unless `compress` is false (raw blocks: for a
 /// transport inside one process, where compressing costs more than copying).
+/// With changed_voxels (one set per entry of `changed`; a delta's), a block carries only the
+/// voxels of its set (the union, for an index listed twice) in the changes format: the set must
+/// hold every voxel that differs from the revision before, or from zero in a block new to it.
+/// Throws std::invalid_argument when the counts differ.
 template <class Voxel>
 std::vector<map_update_t> encodeMapUpdate(const Layer<Voxel>& layer, const MapRevision& revision,
                                           const std::vector<BlockIndex>& changed,
                                           const std::vector<BlockIndex>& removed,
                                           size_t max_message_bytes = kDefaultMaxMessageBytes,
-                                          bool compress = true);
+                                          bool compress = true,
+                                          const std::vector<BlockVoxels>& changed_voxels = {});
+
+/// A block in the changes format: which of its voxels travel, and their values in index order.
+template <class Voxel>
+struct BlockChanges {
+  BlockIndex index;
+  BlockVoxels voxels;
+  std::vector<Voxel> values;
+};
 
 /// One validated message: its blocks decoded.
 template <class Voxel>
@@ -66,13 +81,15 @@ struct MapUpdatePart {
   double voxel_size = 0;
   int part_index = 0;
   int num_parts = 1;
-  std::vector<std::unique_ptr<Block<Voxel>>> blocks;
+  std::vector<std::unique_ptr<Block<Voxel>>> blocks;  ///< whole blocks
+  std::vector<BlockChanges<Voxel>> changes;           ///< blocks in the changes format
   std::vector<BlockIndex> removed;
 };
 
-/// Decodes and validates one message: layer and voxel format of Voxel, 16 voxels per side, a
-/// positive finite voxel size, consistent counts and part numbers, known compression, exact
-/// payload sizes, finite distances, non-negative finite weights, known flag bits, no block twice.
+/// Decodes and validates one message: layer and voxel format of Voxel (whole blocks, or the
+/// changes format in a delta), 16 voxels per side, a positive finite voxel size, consistent counts
+/// and part numbers, known compression, exact payload sizes, finite distances, non-negative finite
+/// weights, known flag bits, no block twice.
 template <class Voxel>
 Expected<MapUpdatePart<Voxel>> decodeMapUpdate(const map_update_t& msg);
 

@@ -44,6 +44,20 @@ struct BlockVoxels {
   bool empty() const {
     return std::all_of(rows.begin(), rows.end(), [](uint16_t row) { return row == 0; });
   }
+  int count() const {
+    int n = 0;
+    for (const uint16_t row : rows) n += std::popcount(row);
+    return n;
+  }
+  /// Calls f(linear index) for each voxel in the set, in index order.
+  template <class F>
+  void forEach(F&& f) const {
+    for (int r = 0; r < kVoxelsPerSide * kVoxelsPerSide; ++r) {
+      for (unsigned row = rows[r]; row != 0; row &= row - 1) {
+        f(r * kVoxelsPerSide + std::countr_zero(row));
+      }
+    }
+  }
   BlockVoxels& operator|=(const BlockVoxels& other) {
     for (size_t r = 0; r < rows.size(); ++r) rows[r] |= other.rows[r];
     return *this;

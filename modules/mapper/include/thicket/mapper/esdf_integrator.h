@@ -64,6 +64,9 @@ struct EsdfUpdateResult {
   /// ESDF blocks with a voxel whose distance or flags changed, new blocks included; sorted
   /// (indexLess), unique.
   std::vector<BlockIndex> changed_blocks;
+  /// For each of changed_blocks, its voxels whose distance or flags changed (after a recompute,
+  /// every voxel: the layer was rebuilt from empty).
+  std::vector<BlockVoxels> changed_voxels;
   /// ESDF blocks deleted because none of their voxels is observed or fixed any more; sorted.
   std::vector<BlockIndex> removed_blocks;
   /// Voxels whose distance or flags changed.

@@ -53,6 +53,7 @@ struct MapRevisionUpdate {
   int64_t revision = 0;
   std::vector<BlockIndex> tsdf_changed;
   std::vector<BlockIndex> esdf_changed;
+  std::vector<BlockVoxels> esdf_changed_voxels;  ///< per esdf_changed block, its changed voxels
   std::vector<BlockIndex> esdf_removed;
   double tsdf_ms = 0;  ///< time to integrate the frame (measured, never used to decide)
   double esdf_ms = 0;  ///< time to update the ESDF
