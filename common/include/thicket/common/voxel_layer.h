@@ -10,6 +10,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <stdexcept>
 #include <unordered_map>
@@ -46,7 +47,11 @@ struct BlockVoxels {
   }
   int count() const {
     int n = 0;
-    for (const uint16_t row : rows) n += std::popcount(row);
+    for (size_t r = 0; r < rows.size(); r += 4) {  // four rows a word: a quarter of the calls
+      uint64_t word;
+      std::memcpy(&word, &rows[r], sizeof(word));
+      n += std::popcount(word);
+    }
     return n;
   }
   /// Calls f(linear index) for each voxel in the set, in index order.
