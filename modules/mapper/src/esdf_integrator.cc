@@ -1013,20 +1013,25 @@ class EsdfIntegrator::Impl {
   // the voxels that changed per block (whole_blocks: all, as after a rebuild from empty).
   EsdfUpdateResult finish(EsdfLayer& esdf, bool whole_blocks) {
     EsdfUpdateResult result;
+    // One pass: a node's first changed voxel allocates its ESDF block (unless no voxel of it is
+    // known any more), and every changed voxel is written out at once.
     for (const Touched& t : touched_) {
-      uint8_t& state = t.node->state[t.lin];
+      BlockNode* node = t.node;
+      uint8_t& state = node->state[t.lin];
       state &= ~kTouched;
-      if (state == t.cls &&
-          std::bit_cast<uint32_t>(t.node->value[t.lin]) == std::bit_cast<uint32_t>(t.value)) {
+      const float value = node->value[t.lin];
+      if (state == t.cls && std::bit_cast<uint32_t>(value) == std::bit_cast<uint32_t>(t.value)) {
         continue;
       }
       ++result.voxels_updated;
-      if (t.node->changed_in_call != call_) {
-        t.node->changed_in_call = call_;
-        t.node->changed = BlockVoxels{};
-        changed_nodes_.push_back(t.node);
+      if (node->changed_in_call != call_) {
+        node->changed_in_call = call_;
+        node->changed = BlockVoxels{};
+        node->out = node->known > 0 ? &esdf.allocateBlock(node->index) : nullptr;
+        changed_nodes_.push_back(node);
       }
-      t.node->changed.insert(t.lin);
+      node->changed.insert(t.lin);
+      if (node->out != nullptr) node->out->voxels[t.lin] = esdfVoxel(state, value);
     }
     std::sort(changed_nodes_.begin(), changed_nodes_.end(),
               [](const BlockNode* a, const BlockNode* b) { return indexLess(a->index, b->index); });
@@ -1034,20 +1039,11 @@ class EsdfIntegrator::Impl {
       if (node->known == 0) {
         esdf.removeBlock(node->index);
         result.removed_blocks.push_back(node->index);
-        node->out = nullptr;
+        erase(node);
       } else {
-        node->out = &esdf.allocateBlock(node->index);
         result.changed_blocks.push_back(node->index);
         result.changed_voxels.push_back(whole_blocks ? BlockVoxels::all() : node->changed);
       }
-    }
-    for (const Touched& t : touched_) {
-      if (t.node->changed_in_call == call_ && t.node->out != nullptr) {
-        t.node->out->voxels[t.lin] = esdfVoxel(t.node->state[t.lin], t.node->value[t.lin]);
-      }
-    }
-    for (BlockNode* node : changed_nodes_) {
-      if (node->known == 0) erase(node);
     }
     return result;
   }
