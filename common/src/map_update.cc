@@ -212,36 +212,33 @@ std::vector<map_update_t> encodeMapUpdate(const Layer<Voxel>& layer, const MapRe
                                 " voxel sets for " + std::to_string(changed.size()) +
                                 " changed blocks");
   }
-  // The blocks to send, sorted, each once, with its set of voxels (the union) in the changes
-  // format.
-  std::vector<std::pair<BlockIndex, BlockVoxels>> blocks;
+  // The blocks to send, sorted, each once; in the changes format, each with the union of its sets.
+  std::vector<BlockIndex> blocks;
+  std::vector<BlockVoxels> sets;
   if (revision.full_snapshot) {
-    for (const BlockIndex& index : layer.blockIndices()) blocks.push_back({index, {}});
+    blocks = layer.blockIndices();
   } else {
+    std::vector<size_t> order;
     for (size_t i = 0; i < changed.size(); ++i) {
-      if (layer.block(changed[i]) != nullptr) {
-        blocks.push_back({changed[i], changes ? changed_voxels[i] : BlockVoxels{}});
-      }
+      if (layer.block(changed[i]) != nullptr) order.push_back(i);
     }
-    std::stable_sort(blocks.begin(), blocks.end(),
-                     [](const auto& a, const auto& b) { return indexLess(a.first, b.first); });
-    size_t kept = 0;
-    for (size_t i = 0; i < blocks.size(); ++i) {
-      if (kept > 0 && blocks[kept - 1].first == blocks[i].first) {
-        blocks[kept - 1].second |= blocks[i].second;
-      } else {
-        blocks[kept++] = blocks[i];
-      }
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return indexLess(changed[a], changed[b]); });
+    for (const size_t i : order) {
+      const bool repeated = !blocks.empty() && blocks.back() == changed[i];
+      if (!repeated) blocks.push_back(changed[i]);
+      if (changes && repeated) sets.back() |= changed_voxels[i];
+      if (changes && !repeated) sets.push_back(changed_voxels[i]);
     }
-    blocks.resize(kept);
   }
   const map_update_t empty = emptyPart(
       revision, VoxelWire<Voxel>::kLayer,
       changes ? VoxelWire<Voxel>::kChangesFormat : VoxelWire<Voxel>::kFormat, layer.voxelSize());
   std::vector<map_update_t> parts = {empty};
   size_t part_bytes = 0;
-  for (const auto& [index, voxels] : blocks) {
-    map_block_t block = encodeBlock(*layer.block(index), changes ? &voxels : nullptr, compress);
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    map_block_t block =
+        encodeBlock(*layer.block(blocks[i]), changes ? &sets[i] : nullptr, compress);
     if (part_bytes > 0 && part_bytes + block.data.size() > max_message_bytes) {
       parts.push_back(empty);
       part_bytes = 0;

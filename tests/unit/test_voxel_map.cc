@@ -389,11 +389,13 @@ TEST(MapMirror, FollowsDeltasThatCarryOnlyTheChangedVoxels) {
   MapMirror<EsdfVoxel> mirror;
   for (const auto& part : encodeMapUpdate(mapper, {1, 1, 1, true}, {}, {})) mirror.apply(part);
   std::vector<BlockIndex> removed_before;
+  int re_added = 0, listed_twice = 0;  // revisions' cases seen: each must come up
   for (int64_t revision = 2; revision < 40; ++revision) {
     std::vector<BlockIndex> changed, removed;
     std::vector<BlockVoxels> changed_voxels;
     // Blocks removed last revision come back with a few voxels: the rest must read zero.
     for (const BlockIndex& b : removed_before) {
+      ++re_added;
       BlockVoxels& voxels = changed_voxels.emplace_back();
       for (int k = 0; k < 50; ++k) {
         const int lin = voxel(rng);
@@ -406,6 +408,7 @@ TEST(MapMirror, FollowsDeltasThatCarryOnlyTheChangedVoxels) {
       const BlockIndex b(index(rng), index(rng), index(rng));
       if (std::find(changed.begin(), changed.end(), b) != changed.end()) {
         // Listed twice: the sets' union travels. A second, separate set for the same block.
+        ++listed_twice;
         BlockVoxels& voxels = changed_voxels.emplace_back();
         const int lin = voxel(rng);
         mapper.allocateBlock(b).voxels[lin] = randomVoxel();
@@ -443,6 +446,8 @@ TEST(MapMirror, FollowsDeltasThatCarryOnlyTheChangedVoxels) {
     EXPECT_LT(raw_bytes, changed.size() * 2100) << "revision " << revision;
     removed_before = removed;
   }
+  EXPECT_GT(re_added, 0);
+  EXPECT_GT(listed_twice, 0);
 }
 
 // The changes format names its voxels and must carry exactly as many, and only as a delta.

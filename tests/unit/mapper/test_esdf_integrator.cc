@@ -155,7 +155,6 @@ std::vector<BlockIndex> toIndices(const std::vector<std::array<int, 3>>& keys) {
   return out;
 }
 
-// The result reports exactly the blocks that differ between the snapshots.
 // The report of an incremental update names exactly the blocks that changed or went, and in each
 // changed block exactly the voxels that differ from before (from the zero voxel in a new block),
 // which is all the map's deltas carry.
