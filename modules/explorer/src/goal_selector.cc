@@ -95,6 +95,9 @@ void RrtStarOptions::declare(Params& p) {
   p("check_step", check_step, "edges are checked for collisions every this [m]", Range::positive());
   p("box_margin", box_margin,
     "the tree grows in the bounding box of start and goal grown by this [m]", Range::atLeast(0));
+  p("delay_collision_checks", delay_collision_checks,
+    "OMPL's delayCC: check a new node's edges to its neighbours in order of cost rather than "
+    "each cheaper one in neighbour order (the same tree, slower here)");
 }
 
 void NbvpOptions::declare(Params& p) {

@@ -310,6 +310,31 @@ TEST(RrtStar, ClampsTheGoalIntoTheFlightVolume) {
   for (const Eigen::Vector3d& w : p.waypoints) EXPECT_LE(w.z(), 3.0);
 }
 
+// OMPL's delayCC off (the default) and on grow the same trees: every request on both maps, each
+// strategy and several cycles, gets the same proposal (waypoints, score, iterations and nodes).
+TEST(RrtStar, DelayedCollisionChecksGiveTheSameProposals) {
+  int found = 0;
+  for (const HandMap& map : {wallWithGap(), deadEndPocket()}) {
+    for (const char* strategy : {kOptimistic, kConservative}) {
+      ExplorerOptions o = optionsFor(strategy);
+      const auto eager = makeGoalSelector(o);
+      o.rrt_star.delay_collision_checks = true;
+      const auto delayed = makeGoalSelector(o);
+      for (int cycle = 0; cycle < 6; ++cycle) {
+        SCOPED_TRACE(std::string(strategy) + " cycle " + std::to_string(cycle));
+        const Proposal a = eager->select(request(cycle), map.view());
+        const Proposal b = delayed->select(request(cycle), map.view());
+        EXPECT_EQ(a.found, b.found);
+        EXPECT_EQ(a.waypoints, b.waypoints);
+        EXPECT_EQ(a.score, b.score);
+        EXPECT_EQ(a.reason, b.reason);
+        found += a.found;
+      }
+    }
+  }
+  EXPECT_GE(found, 20);  // trees that went somewhere, not 24 refusals
+}
+
 // The budget is exactly rrt_star.iterations RRT* iterations, whatever happens in them.
 TEST(RrtStar, RunsExactlyTheIterationBudget) {
   const HandMap map = wallWithGap();
