@@ -61,8 +61,15 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
     }
     measure(data);
     std::size_t best = 0;
-    for (std::size_t i = 1; i < distances_.size(); ++i) {
-      if (distances_[i] < distances_[best]) best = i;
+    for (std::size_t i = 1; i < squared_.size(); ++i) {
+      if (squared_[i] < squared_[best]) best = i;
+    }
+    // An earlier element whose larger squared distance rounds to the same distance ties, and
+    // wins: only those within a few ulps can (sqrt halves relative differences).
+    const double d = std::sqrt(squared_[best]);
+    const double window = squared_[best] * (1 + 1e-15);
+    for (std::size_t i = 0; i < best; ++i) {
+      if (squared_[i] <= window && std::sqrt(squared_[i]) == d) return this->data_[i];
     }
     return this->data_[best];
   }
@@ -76,47 +83,71 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
   /// RealVectorStateSpace::distance's arithmetic: the squared differences summed in axis order,
   /// then the square root.
   static double distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-    const double dx = a.x() - b.x();
-    const double dy = a.y() - b.y();
-    const double dz = a.z() - b.z();
-    return std::sqrt(dx * dx + dy * dy + dz * dz);
+    return std::sqrt(squaredDistance(a, b));
   }
 
  private:
-  // Every element's distance to data, in insertion order.
-  void measure(const T& data) const {
-    const Eigen::Vector3d q = position_(data);
-    distances_.resize(points_.size());
-    for (std::size_t i = 0; i < points_.size(); ++i) distances_[i] = distance(points_[i], q);
+  static double squaredDistance(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    const double dx = a.x() - b.x();
+    const double dy = a.y() - b.y();
+    const double dz = a.z() - b.z();
+    return dx * dx + dy * dy + dz * dz;
   }
 
-  // The at most k elements within radius, nearest first.
+  // Every element's squared distance to data, in insertion order: distance() before its square
+  // root, which only the elements ranked need (it rounds, so ties are settled on distances).
+  void measure(const T& data) const {
+    const Eigen::Vector3d q = position_(data);
+    squared_.resize(points_.size());
+    for (std::size_t i = 0; i < points_.size(); ++i) squared_[i] = squaredDistance(points_[i], q);
+  }
+
+  // The at most k elements within radius, by (distance, insertion).
   void rank(const T& data, std::vector<T>& nbh, double radius, std::size_t k) const {
     measure(data);
-    // Each candidate as one integer key, (distance, index): a distance is not negative, so its
-    // bits order as it does. A total order: the k nearest, sorted, whatever the algorithm.
+    // Each candidate as one integer key, (the top 32 bits of its squared distance, index): a
+    // squared distance is not negative, so its bits order as it does. Those a few ulps beyond
+    // radius^2 stay until their distance is known.
+    const double limit = radius * radius * (1 + 1e-15);
     ranked_.clear();
-    for (std::size_t i = 0; i < distances_.size(); ++i) {
-      if (distances_[i] <= radius) {
-        ranked_.push_back(Key{std::bit_cast<uint64_t>(distances_[i])} << 64 | Key{i});
+    for (std::size_t i = 0; i < squared_.size(); ++i) {
+      if (squared_[i] <= limit) {
+        ranked_.push_back((std::bit_cast<uint64_t>(squared_[i]) >> 32) << 32 | i);
       }
     }
     if (k < ranked_.size()) keepNearest(k);
     sortRanked();
-    const auto end = ranked_.begin() + static_cast<std::ptrdiff_t>(std::min(k, ranked_.size()));
+    // By (distance, index): keys whose top bits differ are in distance order (their squares
+    // differ by more than a millionth), those that share them in index order, which a stable
+    // insertion sort on their distances keeps for equal ones.
+    const std::size_t n = ranked_.size();
+    distances_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) distances_[i] = std::sqrt(squared_[index(ranked_[i])]);
+    for (std::size_t i = 1; i < n; ++i) {
+      const Key key = ranked_[i];
+      const double d = distances_[i];
+      std::size_t j = i;
+      for (; j > 0 && d < distances_[j - 1]; --j) {
+        ranked_[j] = ranked_[j - 1];
+        distances_[j] = distances_[j - 1];
+      }
+      ranked_[j] = key;
+      distances_[j] = d;
+    }
     nbh.clear();
-    for (auto it = ranked_.begin(); it != end; ++it) {
-      nbh.push_back(this->data_[static_cast<std::size_t>(static_cast<uint64_t>(*it))]);
+    for (std::size_t i = 0; i < std::min(k, n) && distances_[i] <= radius; ++i) {
+      nbh.push_back(this->data_[index(ranked_[i])]);
     }
   }
 
   // Drops keys of ranked_ (more than k) that cannot be among its k smallest, keeping their order:
-  // RRT*'s k is about a third of a grown tree. A histogram of the distances' top 16 bits (sign,
-  // exponent and 4 bits of mantissa: buckets a sixteenth of an octave wide), counted from the
-  // smallest, finds the bucket of the k-th smallest key; keys in later buckets go. The last bucket
-  // also holds all that lie farther: when the k-th smallest is there, every key stays.
+  // RRT*'s k is about a third of a grown tree. A histogram of the squared distances' top 16 bits
+  // (sign, exponent and 4 bits of mantissa: buckets a sixteenth of an octave wide), counted from
+  // the smallest, finds the bucket of the k-th smallest key; keys beyond the next bucket go (the
+  // next stays: a squared distance there may round to the k-th's distance). The last bucket also
+  // holds all that lie farther: when the k-th smallest is near there, every key stays.
   void keepNearest(std::size_t k) const {
-    const auto bucket_of = [](Key key) { return static_cast<uint32_t>(key >> 112); };
+    const auto bucket_of = [](Key key) { return static_cast<uint32_t>(key >> 48); };
     uint32_t lowest = std::numeric_limits<uint32_t>::max();
     for (const Key key : ranked_) lowest = std::min(lowest, bucket_of(key));
     constexpr uint32_t kBuckets = 1024;
@@ -125,7 +156,7 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
     std::size_t sum = 0;
     uint32_t last = 0;
     while ((sum += count[last]) < k) ++last;
-    if (last == kBuckets - 1) return;
+    if (++last >= kBuckets - 1) return;
     std::size_t kept = 0;
     for (const Key key : ranked_) {
       ranked_[kept] = key;
@@ -135,9 +166,9 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
   }
 
   // Sorts ranked_. RRT*'s k grows so fast that a query often ranks the whole tree, and comparison
-  // sorts mispredict about every other comparison: so a stable radix sort on the top 32 bits of
-  // the distance, byte by byte (a byte that every key shares is skipped), then an insertion sort
-  // on the whole keys, which only moves keys whose top bits are equal.
+  // sorts mispredict about every other comparison: so a stable radix sort on the top 32 bits (the
+  // squared distance's), byte by byte (a byte that every key shares is skipped), which keeps the
+  // indices in order among equal bits: the keys end sorted.
   void sortRanked() const {
     const std::size_t n = ranked_.size();
     if (n < 64) {
@@ -145,29 +176,27 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
       return;
     }
     scratch_.resize(n);
-    for (int shift = 96; shift < 128; shift += 8) {
-      const auto digit = [shift](Key key) { return static_cast<uint8_t>(key >> shift); };
-      std::array<std::size_t, 256> start{};
-      for (const Key key : ranked_) ++start[digit(key)];
-      if (start[digit(ranked_[0])] == n) continue;
-      std::size_t sum = 0;
-      for (std::size_t& s : start) sum += std::exchange(s, sum);
-      for (const Key key : ranked_) scratch_[start[digit(key)]++] = key;
-      ranked_.swap(scratch_);
+    std::array<std::array<std::size_t, 256>, 4> start{};
+    for (const Key key : ranked_) {
+      for (int b = 0; b < 4; ++b) ++start[b][static_cast<uint8_t>(key >> (32 + 8 * b))];
     }
-    for (std::size_t i = 1; i < n; ++i) {
-      const Key key = ranked_[i];
-      std::size_t j = i;
-      for (; j > 0 && key < ranked_[j - 1]; --j) ranked_[j] = ranked_[j - 1];
-      ranked_[j] = key;
+    for (int b = 0; b < 4; ++b) {
+      const int shift = 32 + 8 * b;
+      if (start[b][static_cast<uint8_t>(ranked_[0] >> shift)] == n) continue;
+      std::size_t sum = 0;
+      for (std::size_t& s : start[b]) sum += std::exchange(s, sum);
+      for (const Key key : ranked_) scratch_[start[b][static_cast<uint8_t>(key >> shift)]++] = key;
+      ranked_.swap(scratch_);
     }
   }
 
-  using Key = unsigned __int128;
+  using Key = uint64_t;
+  static std::size_t index(Key key) { return static_cast<std::size_t>(key & 0xFFFFFFFFu); }
 
   Position position_;
-  std::vector<Eigen::Vector3d> points_;  // position_(data_[i])
-  mutable std::vector<double> distances_;
+  std::vector<Eigen::Vector3d> points_;    // position_(data_[i])
+  mutable std::vector<double> squared_;    // measure()
+  mutable std::vector<double> distances_;  // the ranked keys' distances
   mutable std::vector<Key> ranked_, scratch_;
 };
 

@@ -147,6 +147,40 @@ TEST_F(MotionNeighbors, OrdersDistancesThatDifferOnlyInTheirLastBits) {
   EXPECT_EQ(got, nearest_first);
 }
 
+TEST_F(MotionNeighbors, TiesOnDistancesWhoseSquaresDiffer) {
+  // (1, 1.5e-8, 0) is at squared distance 1 + 2^-52 from the origin, (1, 0, 0) at 1: both at
+  // distance 1 exactly. Alternated, the first of each pair inserted first, with 98 points at
+  // other distances: ties go by insertion whatever the squares say, in nearest() too.
+  points_ = {Eigen::Vector3d::Zero()};
+  ASSERT_EQ(Neighbors::distance(points_[0], {1, 1.5e-8, 0}), 1.0);
+  ASSERT_NE(Eigen::Vector3d(1, 1.5e-8, 0).squaredNorm(), 1.0);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> coordinate(-2.0, 2.0);
+  for (int i = 0; i < 49; ++i) {
+    points_.emplace_back(1, i % 2 == 0 ? 1.5e-8 : 0, 0);
+    points_.emplace_back(1, i % 2 == 0 ? 0 : 1.5e-8, 0);
+    points_.emplace_back(coordinate(rng), coordinate(rng), coordinate(rng));
+    points_.emplace_back(coordinate(rng), coordinate(rng), coordinate(rng));
+  }
+  std::vector<int> elements;
+  for (int i = 1; i < static_cast<int>(points_.size()); ++i) elements.push_back(i);
+  Neighbors nn(TablePosition{&points_});
+  for (const int i : elements) nn.add(i);
+  std::vector<int> got;
+  for (const size_t k : {size_t{1}, size_t{2}, size_t{30}, size_t{60}, elements.size()}) {
+    nn.nearestK(0, k, got);
+    EXPECT_EQ(got, bruteForce(elements, 0, k, std::numeric_limits<double>::infinity())) << k;
+  }
+  nn.nearestR(0, 1.0, got);
+  EXPECT_EQ(got, bruteForce(elements, 0, std::numeric_limits<size_t>::max(), 1.0));
+  Neighbors pair(TablePosition{&points_});
+  pair.add(1);  // (1, 1.5e-8, 0)
+  pair.add(2);  // (1, 0, 0), the smaller square
+  EXPECT_EQ(pair.nearest(0), 1);
+  pair.nearestK(0, 1, got);
+  EXPECT_EQ(got, std::vector<int>{1});
+}
+
 TEST_F(MotionNeighbors, KeepsTheNearestKWhateverTheRangeOfDistances) {
   // Distances from 2^-60 to 2^60 m (far more than the histogram's 64 octaves), a few of them
   // repeated, inserted in a shuffled order: every k gives the brute force's k nearest, whether
