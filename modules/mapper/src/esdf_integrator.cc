@@ -34,6 +34,11 @@ bool isSite(uint8_t cls) {
 bool propagates(uint8_t cls) {
   return cls == kFree || cls == kInside;
 }
+// Whether the ESDF layer shows the voxel as observed; the rest (occupied sites and unknown voxels)
+// it shows as unknown.
+bool published(uint8_t cls) {
+  return cls == kFree || cls == kInside || cls == kSurface;
+}
 uint8_t sideOf(uint8_t cls) {
   return cls == kFree ? kRaiseFree : cls == kInside ? kRaiseInside : 0;
 }
@@ -176,7 +181,8 @@ struct BlockNode {
   // The 3x3x3 blocks around this one, x fastest; cached so that neighbour lookups across block
   // faces need no hashing. Missing blocks are the integrator's empty stand-in, all unknown.
   std::array<BlockNode*, 27> neighbours;
-  int known = 0;        // voxels that are not unknown; the ESDF block exists exactly when known > 0
+  int known = 0;        // voxels that are not unknown; the node exists exactly when known > 0
+  int observed = 0;     // published voxels; the ESDF block exists exactly when observed > 0
   int propagating = 0;  // free and inside voxels
   uint64_t changed_in_call = 0;
   BlockVoxels changed;  // the voxels changed in the call (valid while it writes them out)
@@ -362,7 +368,7 @@ class EsdfIntegrator::Impl {
     built_ = false;
     checkInputs(tsdf, position, esdf);
     if (!built || tsdf.voxelSize() != voxel_size_) return recompute(tsdf, position, esdf);
-    if (esdf.numBlocks() != nodes_.size()) {
+    if (esdf.numBlocks() != blocks_) {
       throw std::logic_error(
           "EsdfIntegrator::update: esdf is not the layer of the previous call (blocks differ)");
     }
@@ -439,7 +445,8 @@ class EsdfIntegrator::Impl {
     return nodes + by_id_.capacity() * sizeof(BlockNode*) +
            free_ids_.capacity() * sizeof(uint32_t) + touched_.capacity() * sizeof(Touched) +
            (raise_.capacity() + seeds_.capacity() + tentative_.capacity()) * sizeof(VoxelRef) +
-           queue_.memoryBytes() + changed_nodes_.capacity() * sizeof(BlockNode*) +
+           queue_.memoryBytes() +
+           (changed_nodes_.capacity() + emptied_.capacity()) * sizeof(BlockNode*) +
            work_.capacity() * sizeof(Work) + work_sets_.capacity() * sizeof(BlockVoxels);
   }
 
@@ -534,6 +541,7 @@ class EsdfIntegrator::Impl {
     // Buckets of half a voxel: narrower than every edge, so each voxel leaves the queue final.
     queue_.reset(0.5f * voxel_size_f_, max_);
     clearList(changed_nodes_);
+    clearList(emptied_);
     clearList(work_);
     clearList(work_sets_);
   }
@@ -679,6 +687,14 @@ class EsdfIntegrator::Impl {
                                                 std::bit_cast<uint32_t>(c.value));
   }
 
+  // Counts a voxel of node going from class old to cls in the node's known and observed voxels; a
+  // node left with none known is erased at the end of the call.
+  void count(BlockNode* node, uint8_t old, uint8_t cls) {
+    node->known += (cls != kUnknown) - (old != kUnknown);
+    node->observed += published(cls) - published(old);
+    if (node->known == 0 && old != kUnknown) emptied_.push_back(node);
+  }
+
   // Records the voxel's state before the call, once.
   void touch(BlockNode* node, int lin) {
     if (!(node->state[lin] & kTouched)) record(node, lin);
@@ -710,7 +726,7 @@ class EsdfIntegrator::Impl {
                                   : 0;
     }
     if (raise != 0) raise_.push_back({node, lin, raise});
-    node->known += (cls != kUnknown) - (old != kUnknown);
+    count(node, old, cls);
     node->propagating += propagates(cls) - propagates(old);
     node->state[lin] = kTouched | cls;
     node->value[lin] = value;
@@ -811,8 +827,19 @@ class EsdfIntegrator::Impl {
                 // block if it changed).
                 if (row_tsdf_[i] != nullptr && observed(&row_tsdf_[i]->voxels[lin])) continue;
                 const Classified c = unobservedClass(x, clear, now);
-                if (!unchanged(row_nodes_[i], lin, c)) {
-                  reclassify(row_nodes_[i], BlockIndex(lo.x() + i, by, bz), lin, c);
+                if (unchanged(row_nodes_[i], lin, c)) continue;
+                BlockNode*& node = row_nodes_[i];
+                const BlockIndex b(lo.x() + i, by, bz);
+                if (node == nullptr) node = allocate(b);
+                const uint8_t old = node->state[lin] & kClassMask;
+                // Between unknown and occupied far from free and inside voxels (most of the
+                // sphere's edge): no distance reads it, and the layer shows both as unknown, so
+                // only the class changes (both have value 0 and no parent).
+                if (!published(old) && !published(c.cls) && !nearPropagating(node, lin)) {
+                  count(node, old, c.cls);
+                  node->state[lin] = static_cast<uint8_t>((node->state[lin] & kTouched) | c.cls);
+                } else {
+                  reclassify(node, b, lin, c);
                 }
               }
             };
@@ -1002,49 +1029,58 @@ class EsdfIntegrator::Impl {
         return {-value, true, false};
       case kSurface:
         return {value, true, true};
-      case kOccupied:
-        return {value, false, true};
-      default:
+      default:  // unknown, and occupied: unobserved space either way to every reader
         return {};
     }
   }
 
-  // Writes the voxels that changed to esdf, allocating and removing blocks, and reports them, with
-  // the voxels that changed per block (whole_blocks: all, as after a rebuild from empty).
+  // Writes the voxels whose published state changed to esdf, allocating and removing blocks, and
+  // reports them, with the voxels that changed per block (whole_blocks: all, as after a rebuild
+  // from empty). Erases the nodes left with no voxel known.
   EsdfUpdateResult finish(EsdfLayer& esdf, bool whole_blocks) {
     EsdfUpdateResult result;
-    // One pass: a node's first changed voxel allocates its ESDF block (unless no voxel of it is
-    // known any more), and every changed voxel is written out at once.
+    // One pass: a node's first changed voxel allocates its ESDF block (unless none of its voxels
+    // is published any more), and every changed voxel is written out at once.
     for (const Touched& t : touched_) {
       BlockNode* node = t.node;
       uint8_t& state = node->state[t.lin];
       state &= ~kTouched;
-      const float value = node->value[t.lin];
-      if (state == t.cls && std::bit_cast<uint32_t>(value) == std::bit_cast<uint32_t>(t.value)) {
+      const EsdfVoxel voxel = esdfVoxel(state, node->value[t.lin]);
+      const EsdfVoxel before = esdfVoxel(t.cls, t.value);
+      if (std::bit_cast<uint32_t>(voxel.distance) == std::bit_cast<uint32_t>(before.distance) &&
+          voxel.observed == before.observed && voxel.fixed == before.fixed) {
         continue;
       }
       ++result.voxels_updated;
       if (node->changed_in_call != call_) {
         node->changed_in_call = call_;
         node->changed = BlockVoxels{};
-        node->out = node->known > 0 ? &esdf.allocateBlock(node->index) : nullptr;
+        node->out = node->observed > 0 ? &esdf.allocateBlock(node->index) : nullptr;
         changed_nodes_.push_back(node);
       }
       node->changed.insert(t.lin);
-      if (node->out != nullptr) node->out->voxels[t.lin] = esdfVoxel(state, value);
+      if (node->out != nullptr) node->out->voxels[t.lin] = voxel;
     }
-    std::sort(changed_nodes_.begin(), changed_nodes_.end(),
-              [](const BlockNode* a, const BlockNode* b) { return indexLess(a->index, b->index); });
+    const auto by_index = [](const BlockNode* a, const BlockNode* b) {
+      return indexLess(a->index, b->index);
+    };
+    std::sort(changed_nodes_.begin(), changed_nodes_.end(), by_index);
     for (BlockNode* node : changed_nodes_) {
-      if (node->known == 0) {
+      if (node->observed == 0) {
+        // It had a block: one of its voxels was published before the call.
         esdf.removeBlock(node->index);
         result.removed_blocks.push_back(node->index);
-        erase(node);
       } else {
         result.changed_blocks.push_back(node->index);
         result.changed_voxels.push_back(whole_blocks ? BlockVoxels::all() : node->changed);
       }
     }
+    std::sort(emptied_.begin(), emptied_.end(), by_index);
+    emptied_.erase(std::unique(emptied_.begin(), emptied_.end()), emptied_.end());
+    for (BlockNode* node : emptied_) {
+      if (node->known == 0) erase(node);
+    }
+    blocks_ = esdf.numBlocks();
     return result;
   }
 
@@ -1078,6 +1114,8 @@ class EsdfIntegrator::Impl {
   std::vector<VoxelRef> tentative_;
   BucketQueue queue_;
   std::vector<BlockNode*> changed_nodes_;
+  std::vector<BlockNode*> emptied_;  // nodes whose last known voxel became unknown in the call
+  size_t blocks_ = 0;                // the ESDF blocks after the last call
   struct Work {
     BlockIndex block;
     uint32_t set;  // in work_sets_

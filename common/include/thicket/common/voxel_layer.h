@@ -109,8 +109,9 @@ struct TsdfVoxel {
 };
 
 /// Euclidean signed distance [m] to the nearest occupied voxel, capped at the ESDF's maximum
-/// distance. observed: the TSDF saw it (or the unknown-space policy decided it); fixed: its
-/// distance comes from the TSDF (near a surface) or from the policy, not from propagation.
+/// distance. observed: the TSDF saw it (or the unknown-space policy cleared it for take-off);
+/// fixed: an observed voxel whose distance comes from the TSDF (near a surface), not from
+/// propagation. Unobserved voxels read as distance 0, neither observed nor fixed.
 struct EsdfVoxel {
   float distance = 0;
   bool observed = false;

@@ -11,8 +11,11 @@
 //   - unobserved within clear_radius of the initial position: free (observed, not fixed), so that
 //     the vehicle can take off;
 //   - otherwise unobserved within occupied_radius of the current position: an occupied site at
-//     distance 0 (not observed, fixed);
-//   - otherwise unknown (not observed, not fixed, distance 0), outside the propagation.
+//     distance 0;
+//   - otherwise unknown, outside the propagation.
+// The layer shows observed voxels with their distance (fixed: a site), and unobserved ones, the
+// occupied sites among them, as unknown (distance 0, neither observed nor fixed): its readers
+// treat unobserved space as an obstacle, and the sites act through the distances near them.
 // Distances propagate from the sites over the 26-neighbourhood (edges of 1, sqrt 2, sqrt 3 voxel
 // sizes): a free voxel gets max(0, min over free or site neighbours n of d_n + edge), an inside
 // voxel minus the same through inside voxels with the sites' distances negated. Magnitudes
@@ -21,7 +24,8 @@
 // update() is a raise/lower wavefront over the changes only (a dynamic shortest-path tree with a
 // parent direction per voxel); its result equals recompute() on the same TSDF and positions (the
 // same flags and blocks, distances within float rounding). An ESDF block is allocated exactly when
-// one of its voxels is observed or fixed. Deterministic: the same calls give the same bytes.
+// one of its voxels is observed, so the occupied sphere moving through unobserved space changes no
+// block. Deterministic: the same calls give the same bytes.
 #pragma once
 
 #include <cstdint>
@@ -67,7 +71,7 @@ struct EsdfUpdateResult {
   /// For each of changed_blocks, its voxels whose distance or flags changed (after a recompute,
   /// every voxel: the layer was rebuilt from empty).
   std::vector<BlockVoxels> changed_voxels;
-  /// ESDF blocks deleted because none of their voxels is observed or fixed any more; sorted.
+  /// ESDF blocks deleted because none of their voxels is observed any more; sorted.
   std::vector<BlockIndex> removed_blocks;
   /// Voxels whose distance or flags changed.
   int64_t voxels_updated = 0;
