@@ -252,6 +252,43 @@ inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
   for (int d = 0; d < 26; ++d) f(d, node->neighbours[slot[d]], lin + offset[d]);
 }
 
+// Per row of three neighbours, the bit 0 of each lane's byte that counts (not the voxel's own).
+constexpr std::array<uint32_t, 9> kRowLanes = [] {
+  std::array<uint32_t, 9> masks{};
+  for (int row = 0; row < 9; ++row) {
+    for (int lane = 0; lane < 3; ++lane) {
+      if (kRowDirections[row][lane] >= 0) masks[row] |= 1u << (8 * lane);
+    }
+  }
+  return masks;
+}();
+
+// Calls f(direction, node, linear index) for each free or inside neighbour of voxel lin, in
+// direction order, as forEachNeighbour does for all. For interior voxels a row of three
+// neighbours' classes is tested at once (four state bytes in a word): next to a new site most
+// neighbours are sites or unknown.
+template <class F>
+inline void forEachPropagatingNeighbour(BlockNode* node, int lin, F&& f) {
+  if (!interior(lin)) {
+    forEachNeighbour(node, lin, [&](int d, BlockNode* n, int l) {
+      if (propagates(n->state[l] & kClassMask)) f(d, n, l);
+    });
+    return;
+  }
+  for (int row = 0; row < 9; ++row) {
+    const int first = lin + kRowStarts[row];
+    uint32_t states;
+    std::memcpy(&states, &node->state[first], sizeof(states));
+    // Bit 0 of a lane's byte: free (1) or inside (2), the class's bits 0 and 1 differing and its
+    // bit 2 clear.
+    for (uint32_t lanes = (states ^ (states >> 1)) & ~(states >> 2) & kRowLanes[row]; lanes != 0;
+         lanes &= lanes - 1) {
+      const int lane = std::countr_zero(lanes) / 8;
+      f(kRowDirections[row][lane], node, first + lane);
+    }
+  }
+}
+
 constexpr int kLast = kVoxelsPerSide - 1;
 constexpr float kNoSite = std::numeric_limits<float>::infinity();
 
@@ -940,9 +977,8 @@ class EsdfIntegrator::Impl {
       if (!nearPropagating(r.node, r.lin)) continue;
       const float from_value = r.node->value[r.lin];
       if (isSite(r.node->state[r.lin] & kClassMask)) {
-        forEachNeighbour(r.node, r.lin, [&](int d, BlockNode* n, int l) {
+        forEachPropagatingNeighbour(r.node, r.lin, [&](int d, BlockNode* n, int l) {
           const uint8_t cls = n->state[l] & kClassMask;
-          if (!propagates(cls)) return;
           const float source = cls == kInside ? -from_value : from_value;
           if ((sideOf(cls) & r.raise) != 0 && n->parent[l] == 25 - d) {
             raiseChild(r, d, n, l, source);
@@ -965,13 +1001,9 @@ class EsdfIntegrator::Impl {
     for (const VoxelRef& s : seeds_) {
       if (!nearPropagating(s.node, s.lin)) continue;
       const float v = s.node->value[s.lin];
-      forEachNeighbour(s.node, s.lin, [&](int d, BlockNode* n, int l) {
-        const uint8_t cls = n->state[l] & kClassMask;
-        if (cls == kFree) {
-          offer(n, l, std::max(0.0f, v + edge_[d]), 25 - d);
-        } else if (cls == kInside) {
-          offer(n, l, std::max(0.0f, -v + edge_[d]), 25 - d);
-        }
+      forEachPropagatingNeighbour(s.node, s.lin, [&](int d, BlockNode* n, int l) {
+        const float source = (n->state[l] & kClassMask) == kFree ? v : -v;
+        offer(n, l, std::max(0.0f, source + edge_[d]), 25 - d);
       });
     }
     // ... and by the best neighbour of every invalidated, re-evaluated or reclassified voxel: once
@@ -1045,12 +1077,13 @@ class EsdfIntegrator::Impl {
       BlockNode* node = t.node;
       uint8_t& state = node->state[t.lin];
       state &= ~kTouched;
-      const EsdfVoxel voxel = esdfVoxel(state, node->value[t.lin]);
-      const EsdfVoxel before = esdfVoxel(t.cls, t.value);
-      if (std::bit_cast<uint32_t>(voxel.distance) == std::bit_cast<uint32_t>(before.distance) &&
-          voxel.observed == before.observed && voxel.fixed == before.fixed) {
+      const float value = node->value[t.lin];
+      // A published voxel shows its class and value (esdfVoxel tells them apart), the rest none.
+      if ((state == t.cls && std::bit_cast<uint32_t>(value) == std::bit_cast<uint32_t>(t.value)) ||
+          (!published(state) && !published(t.cls))) {
         continue;
       }
+      const EsdfVoxel voxel = esdfVoxel(state, value);
       ++result.voxels_updated;
       if (node->changed_in_call != call_) {
         node->changed_in_call = call_;
