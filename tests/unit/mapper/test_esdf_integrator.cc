@@ -774,8 +774,9 @@ void flyBenchmarkFlight(double voxel_size, size_t check_every) {
     reference.recompute(tsdf, poses[i].position, expected);
     EXPECT_TRUE(sameEsdf(esdf, expected, 1e-5)) << "frame " << i;
   }
-  // The wavefront state kept between frames: a node per block (three quarters of the layer's
-  // bytes) and the work lists of recent frames, not the first frame's occupied sphere.
+  // The wavefront state kept between frames: a node per block of the layer or of the occupied
+  // sphere (three quarters of a layer block's bytes) and the work lists of recent frames, not the
+  // first frame's whole sphere.
   EXPECT_GT(integrator.memoryBytes(), esdf.memoryBytes() / 2);
   EXPECT_LE(integrator.memoryBytes(), 2 * esdf.memoryBytes());
 }
