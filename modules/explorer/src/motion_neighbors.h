@@ -65,9 +65,9 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
       if (squared_[i] < squared_[best]) best = i;
     }
     // An earlier element whose larger squared distance rounds to the same distance ties, and
-    // wins: only those within a few ulps can (sqrt halves relative differences).
+    // wins.
     const double d = std::sqrt(squared_[best]);
-    const double window = squared_[best] * (1 + 1e-15);
+    const double window = squared_[best] * kSameDistance;
     for (std::size_t i = 0; i < best; ++i) {
       if (squared_[i] <= window && std::sqrt(squared_[i]) == d) return this->data_[i];
     }
@@ -108,7 +108,7 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
     // Each candidate as one integer key, (the top 32 bits of its squared distance, index): a
     // squared distance is not negative, so its bits order as it does. Those a few ulps beyond
     // radius^2 stay until their distance is known.
-    const double limit = radius * radius * (1 + 1e-15);
+    const double limit = radius * radius * kSameDistance;
     ranked_.clear();
     for (std::size_t i = 0; i < squared_.size(); ++i) {
       if (squared_[i] <= limit) {
@@ -189,6 +189,10 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
       ranked_.swap(scratch_);
     }
   }
+
+  // Squares farther apart than this factor have different square roots: a square root halves
+  // relative differences, and doubles round within 1.1e-16 of theirs.
+  static constexpr double kSameDistance = 1 + 1e-15;
 
   using Key = uint64_t;
   static std::size_t index(Key key) { return static_cast<std::size_t>(key & 0xFFFFFFFFu); }

@@ -182,7 +182,7 @@ struct BlockNode {
   // faces need no hashing. Missing blocks are the integrator's empty stand-in, all unknown.
   std::array<BlockNode*, 27> neighbours;
   int known = 0;        // voxels that are not unknown; the node exists exactly when known > 0
-  int observed = 0;     // published voxels; the ESDF block exists exactly when observed > 0
+  int published = 0;    // published voxels; the ESDF block exists exactly when published > 0
   int propagating = 0;  // free and inside voxels
   uint64_t changed_in_call = 0;
   BlockVoxels changed;  // the voxels changed in the call (valid while it writes them out)
@@ -728,7 +728,7 @@ class EsdfIntegrator::Impl {
   // node left with none known is erased at the end of the call.
   void count(BlockNode* node, uint8_t old, uint8_t cls) {
     node->known += (cls != kUnknown) - (old != kUnknown);
-    node->observed += published(cls) - published(old);
+    node->published += published(cls) - published(old);
     if (node->known == 0 && old != kUnknown) emptied_.push_back(node);
   }
 
@@ -871,7 +871,9 @@ class EsdfIntegrator::Impl {
                 const uint8_t old = node->state[lin] & kClassMask;
                 // Between unknown and occupied far from free and inside voxels (most of the
                 // sphere's edge): no distance reads it, and the layer shows both as unknown, so
-                // only the class changes (both have value 0 and no parent).
+                // only the class changes (both have value 0 and no parent). Only here: the
+                // classification is done, so the counts nearPropagating reads are those with
+                // which propagate() would skip the voxel.
                 if (!published(old) && !published(c.cls) && !nearPropagating(node, lin)) {
                   count(node, old, c.cls);
                   node->state[lin] = static_cast<uint8_t>((node->state[lin] & kTouched) | c.cls);
@@ -1054,16 +1056,11 @@ class EsdfIntegrator::Impl {
   }
 
   static EsdfVoxel esdfVoxel(uint8_t cls, float value) {
-    switch (cls) {
-      case kFree:
-        return {value, true, false};
-      case kInside:
-        return {-value, true, false};
-      case kSurface:
-        return {value, true, true};
-      default:  // unknown, and occupied: unobserved space either way to every reader
-        return {};
-    }
+    // Unknown and occupied voxels alike: unobserved space to every reader.
+    if (!published(cls)) return {};
+    return cls == kFree     ? EsdfVoxel{value, true, false}
+           : cls == kInside ? EsdfVoxel{-value, true, false}
+                            : EsdfVoxel{value, true, true};  // a surface site
   }
 
   // Writes the voxels whose published state changed to esdf, allocating and removing blocks, and
@@ -1088,7 +1085,7 @@ class EsdfIntegrator::Impl {
       if (node->changed_in_call != call_) {
         node->changed_in_call = call_;
         node->changed = BlockVoxels{};
-        node->out = node->observed > 0 ? &esdf.allocateBlock(node->index) : nullptr;
+        node->out = node->published > 0 ? &esdf.allocateBlock(node->index) : nullptr;
         changed_nodes_.push_back(node);
       }
       node->changed.insert(t.lin);
@@ -1099,7 +1096,7 @@ class EsdfIntegrator::Impl {
     };
     std::sort(changed_nodes_.begin(), changed_nodes_.end(), by_index);
     for (BlockNode* node : changed_nodes_) {
-      if (node->observed == 0) {
+      if (node->published == 0) {
         // It had a block: one of its voxels was published before the call.
         esdf.removeBlock(node->index);
         result.removed_blocks.push_back(node->index);

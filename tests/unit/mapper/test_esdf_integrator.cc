@@ -506,6 +506,8 @@ TEST(EsdfIntegrator, UnknownSpacePolicy) {
   EXPECT_TRUE(result.removed_blocks.empty());
   EXPECT_EQ(result.voxels_updated, 0);
   expectSpheres(moved);
+  EXPECT_TRUE(isUnknown(start + Eigen::Vector3d(-4, 0, 0)));       // left the sphere
+  EXPECT_TRUE(isUnknown(start + Eigen::Vector3d(7.6, 0, 0)));      // entered it: a site, unseen
   EXPECT_NEAR(expectShellDistance(start, moved), at_start, 1e-5);  // r_c stays at the start
   EsdfLayer expected(vs);
   EsdfIntegrator reference(options);
