@@ -113,21 +113,30 @@ constexpr std::array<uint32_t, 9> kRowParents = [] {
   return words;
 }();
 
+// The rows of three neighbours of a voxel that is neither on its block's first nor on its last
+// layer along x (rowsInBlocks): each row (x - 1, x, x + 1 at y + dy, z + dz; rows in direction
+// order, dz slowest) lies in one block. Per position class and row, that block as a slot in
+// BlockNode::neighbours and the offset of the row's first voxel from the voxel's linear index. A
+// row is read as four voxels: the fourth may lie one past the block's last voxel, which
+// BlockNode's arrays hold for that.
+struct RowTables {
+  std::array<std::array<uint8_t, 9>, 27> slot{};
+  std::array<std::array<int16_t, 9>, 27> offset{};
+};
+constexpr RowTables kRows = [] {
+  RowTables rows;
+  for (int c = 0; c < 27; ++c) {
+    for (int row = 0; row < 9; ++row) {
+      rows.slot[c][row] = kNeighbours.slot[c][kRowDirections[row][0]];
+      rows.offset[c][row] = kNeighbours.offset[c][kRowDirections[row][0]];
+    }
+  }
+  return rows;
+}();
+
 // Four floats, and four comparison results, compared lane by lane (GCC vector extensions).
 using Floats4 = float __attribute__((vector_size(16)));
 using Ints4 = int32_t __attribute__((vector_size(16)));
-
-// From an interior voxel's index, the first of each row of three neighbours (x - 1, y + dy,
-// z + dz), rows in direction order (dz slowest). A row is read as four voxels: the fourth may lie
-// one past the block's last voxel, which BlockNode's arrays hold for that.
-constexpr std::array<int, 9> kRowStarts = [] {
-  std::array<int, 9> starts{};
-  for (int dz = -1, row = 0; dz <= 1; ++dz) {
-    for (int dy = -1; dy <= 1; ++dy)
-      starts[row++] = -1 + kVoxelsPerSide * (dy + kVoxelsPerSide * dz);
-  }
-  return starts;
-}();
 
 double square(double x) {
   return x * x;
@@ -188,7 +197,7 @@ struct BlockNode {
   BlockVoxels changed;  // the voxels changed in the call (valid while it writes them out)
   EsdfLayer::BlockType* out = nullptr;  // valid while a call writes its changes out
   // Per voxel, and one element more: a row of three neighbours is read as four at once, the
-  // fourth up to one past the last voxel (kRowStarts).
+  // fourth up to one past the last voxel (kRows).
   // Sites: their distance; free and inside voxels: the magnitude; unknown: 0.
   std::array<float, kVoxelsPerBlock + 1> value{};
   std::array<uint8_t, kVoxelsPerBlock + 1> state{};  // class | kTouched
@@ -224,6 +233,28 @@ inline bool interior(int lin) {
   return positionClass(lin) == kMiddle;
 }
 
+// Whether voxel lin's rows of neighbours each lie in one block (kRows): x neither 0 nor 15.
+inline bool rowsInBlocks(int lin) {
+  return static_cast<unsigned>((lin & (kVoxelsPerSide - 1)) - 1) < kVoxelsPerSide - 2;
+}
+
+// Calls f(row, node, linear index of the row's first voxel) for the nine rows of neighbours of
+// voxel lin, which must be rowsInBlocks. Unrolled, and for interior voxels with the rows' block
+// and offsets as constants.
+template <class F>
+inline void forEachRow(BlockNode* node, int lin, F&& f) {
+  const int c = positionClass(lin);
+  if (c == kMiddle) {
+#pragma GCC unroll 9
+    for (int row = 0; row < 9; ++row) f(row, node, lin + kRows.offset[kMiddle][row]);
+    return;
+  }
+#pragma GCC unroll 9
+  for (int row = 0; row < 9; ++row) {
+    f(row, node->neighbours[kRows.slot[c][row]], lin + kRows.offset[c][row]);
+  }
+}
+
 // Whether a free or inside voxel may be among the neighbours of voxel lin: false skips the scan
 // of sites deep in unobserved space, which the moving occupied sphere creates and removes.
 inline bool nearPropagating(const BlockNode* node, int lin) {
@@ -236,16 +267,21 @@ inline bool nearPropagating(const BlockNode* node, int lin) {
 }
 
 // Calls f(direction, node, linear index) for each neighbour (in the empty stand-in if its block is
-// not allocated). Unrolled, and for interior voxels (two thirds of a block) with the neighbours'
-// offsets as constants: the scans of the changed voxels' neighbourhoods are most of an update.
+// not allocated), in direction order. Unrolled, with a block per row of three neighbours where the
+// rows lie each in one block (seven eighths of a block's voxels), and constant offsets for
+// interior voxels: the scans of the changed voxels' neighbourhoods are most of an update.
 template <class F>
 inline void forEachNeighbour(BlockNode* node, int lin, F&& f) {
-  const int c = positionClass(lin);
-  if (c == kMiddle) {
-#pragma GCC unroll 26
-    for (int d = 0; d < 26; ++d) f(d, node, lin + kNeighbours.offset[kMiddle][d]);
+  if (rowsInBlocks(lin)) {
+    forEachRow(node, lin, [&](int row, BlockNode* n, int first) {
+#pragma GCC unroll 3
+      for (int lane = 0; lane < 3; ++lane) {
+        if (kRowDirections[row][lane] >= 0) f(kRowDirections[row][lane], n, first + lane);
+      }
+    });
     return;
   }
+  const int c = positionClass(lin);
   const std::array<uint8_t, 26>& slot = kNeighbours.slot[c];
   const std::array<int16_t, 26>& offset = kNeighbours.offset[c];
 #pragma GCC unroll 26
@@ -264,29 +300,28 @@ constexpr std::array<uint32_t, 9> kRowLanes = [] {
 }();
 
 // Calls f(direction, node, linear index) for each free or inside neighbour of voxel lin, in
-// direction order, as forEachNeighbour does for all. For interior voxels a row of three
-// neighbours' classes is tested at once (four state bytes in a word): next to a new site most
-// neighbours are sites or unknown.
+// direction order, as forEachNeighbour does for all. Where the rows of neighbours lie each in one
+// block, a row's three classes are tested at once (four state bytes in a word): next to a new site
+// most neighbours are sites or unknown.
 template <class F>
 inline void forEachPropagatingNeighbour(BlockNode* node, int lin, F&& f) {
-  if (!interior(lin)) {
+  if (!rowsInBlocks(lin)) {
     forEachNeighbour(node, lin, [&](int d, BlockNode* n, int l) {
       if (propagates(n->state[l] & kClassMask)) f(d, n, l);
     });
     return;
   }
-  for (int row = 0; row < 9; ++row) {
-    const int first = lin + kRowStarts[row];
+  forEachRow(node, lin, [&](int row, BlockNode* n, int first) {
     uint32_t states;
-    std::memcpy(&states, &node->state[first], sizeof(states));
+    std::memcpy(&states, &n->state[first], sizeof(states));
     // Bit 0 of a lane's byte: free (1) or inside (2), the class's bits 0 and 1 differing and its
     // bit 2 clear.
     for (uint32_t lanes = (states ^ (states >> 1)) & ~(states >> 2) & kRowLanes[row]; lanes != 0;
          lanes &= lanes - 1) {
       const int lane = std::countr_zero(lanes) / 8;
-      f(kRowDirections[row][lane], node, first + lane);
+      f(kRowDirections[row][lane], n, first + lane);
     }
-  }
+  });
 }
 
 constexpr int kLast = kVoxelsPerSide - 1;
@@ -908,44 +943,42 @@ class EsdfIntegrator::Impl {
     push(candidate, node, lin);
   }
 
-  // Dijkstra's offers from voxel lin, all of whose neighbours are in its block, to those of class
-  // cls: the same offers in the same order as one by one, but a row of three neighbours is
+  // Dijkstra's offers from voxel lin, whose rows of neighbours lie each in one block, to those of
+  // class cls: the same offers in the same order as one by one, but a row of three neighbours is
   // compared at once, since few offers succeed (under 4 %).
-  void offerToInteriorNeighbours(BlockNode* node, int lin, float value, uint8_t cls) {
+  void offerToRowNeighbours(BlockNode* node, int lin, float value, uint8_t cls) {
     const Floats4 from = {value, value, value, value};
-    for (int row = 0; row < 9; ++row) {
-      const int first = lin + kRowStarts[row];
+    forEachRow(node, lin, [&](int row, BlockNode* n, int first) {
       Floats4 neighbours;
-      std::memcpy(&neighbours, &node->value[first], sizeof(neighbours));
+      std::memcpy(&neighbours, &n->value[first], sizeof(neighbours));
       const Floats4 candidates = from + row_edges_[row];
       const Ints4 shorter = candidates < neighbours;
-      if ((shorter[0] | shorter[1] | shorter[2]) == 0) continue;
+      if ((shorter[0] | shorter[1] | shorter[2]) == 0) return;
       for (int lane = 0; lane < 3; ++lane) {
-        if (shorter[lane] != 0 && (node->state[first + lane] & kClassMask) == cls) {
-          lower(node, first + lane, candidates[lane], 25 - kRowDirections[row][lane]);
+        if (shorter[lane] != 0 && (n->state[first + lane] & kClassMask) == cls) {
+          lower(n, first + lane, candidates[lane], 25 - kRowDirections[row][lane]);
         }
       }
-    }
+    });
   }
 
-  // raiseChild for each child of voxel r, all of whose neighbours are in its block, in direction
-  // order as one by one, but a row of three neighbours' parents is compared at once (four bytes
-  // in a word), since most voxels are no child of r.
-  void raiseInteriorChildren(const VoxelRef& r, float source) {
-    for (int row = 0; row < 9; ++row) {
-      const int first = r.lin + kRowStarts[row];
+  // raiseChild for each child of voxel r, whose rows of neighbours lie each in one block, in
+  // direction order as one by one, but a row of three neighbours' parents is compared at once
+  // (four bytes in a word), since most voxels are no child of r.
+  void raiseRowChildren(const VoxelRef& r, float source) {
+    forEachRow(r.node, r.lin, [&](int row, BlockNode* n, int first) {
       uint32_t parents;
-      std::memcpy(&parents, &r.node->parent[first], sizeof(parents));
+      std::memcpy(&parents, &n->parent[first], sizeof(parents));
       // Zero bytes where a neighbour's parent is r: the classic test for a zero byte in a word
       // can flag a byte above a real zero too, never miss one; the lanes are checked below.
       const uint32_t x = parents ^ kRowParents[row];
-      if (((x - 0x01010101u) & ~x & 0x80808080u) == 0) continue;
+      if (((x - 0x01010101u) & ~x & 0x80808080u) == 0) return;
       for (int lane = 0; lane < 3; ++lane) {
         if ((x >> (8 * lane) & 0xFF) == 0) {
-          raiseChild(r, kRowDirections[row][lane], r.node, first + lane, source);
+          raiseChild(r, kRowDirections[row][lane], n, first + lane, source);
         }
       }
-    }
+    });
   }
 
   // Invalidates child n of raised voxel r, in direction d from r, or re-evaluates it from r's
@@ -990,8 +1023,8 @@ class EsdfIntegrator::Impl {
         });
       } else {
         // Only free and inside voxels have parents, and a child is on its parent's side.
-        if (interior(r.lin)) {
-          raiseInteriorChildren(r, from_value);
+        if (rowsInBlocks(r.lin)) {
+          raiseRowChildren(r, from_value);
         } else {
           forEachNeighbour(r.node, r.lin, [&](int d, BlockNode* n, int l) {
             if (n->parent[l] == 25 - d) raiseChild(r, d, n, l, from_value);
@@ -1045,8 +1078,8 @@ class EsdfIntegrator::Impl {
       const int lin = static_cast<int>(voxel & 4095);
       if (node->value[lin] != value) continue;  // lowered again since
       const uint8_t cls = node->state[lin] & kClassMask;
-      if (interior(lin)) {
-        offerToInteriorNeighbours(node, lin, value, cls);
+      if (rowsInBlocks(lin)) {
+        offerToRowNeighbours(node, lin, value, cls);
         continue;
       }
       forEachNeighbour(node, lin, [&](int d, BlockNode* n, int l) {
