@@ -299,6 +299,15 @@ constexpr std::array<uint32_t, 9> kRowLanes = [] {
   return masks;
 }();
 
+// The free and inside voxels of the row of three neighbours that starts at voxel first of node
+// (row: its place in kRows' order), as bit 0 of each lane's byte: from the row's four state bytes
+// in a word, those whose class's bits 0 and 1 differ and bit 2 is clear (free, 1, or inside, 2).
+inline uint32_t propagatingLanes(const BlockNode* n, int first, int row) {
+  uint32_t states;
+  std::memcpy(&states, &n->state[first], sizeof(states));
+  return (states ^ (states >> 1)) & ~(states >> 2) & kRowLanes[row];
+}
+
 // Calls f(direction, node, linear index) for each free or inside neighbour of voxel lin, in
 // direction order, as forEachNeighbour does for all. Where the rows of neighbours lie each in one
 // block, a row's three classes are tested at once (four state bytes in a word): next to a new site
@@ -312,16 +321,29 @@ inline void forEachPropagatingNeighbour(BlockNode* node, int lin, F&& f) {
     return;
   }
   forEachRow(node, lin, [&](int row, BlockNode* n, int first) {
-    uint32_t states;
-    std::memcpy(&states, &n->state[first], sizeof(states));
-    // Bit 0 of a lane's byte: free (1) or inside (2), the class's bits 0 and 1 differing and its
-    // bit 2 clear.
-    for (uint32_t lanes = (states ^ (states >> 1)) & ~(states >> 2) & kRowLanes[row]; lanes != 0;
-         lanes &= lanes - 1) {
+    for (uint32_t lanes = propagatingLanes(n, first, row); lanes != 0; lanes &= lanes - 1) {
       const int lane = std::countr_zero(lanes) / 8;
       f(kRowDirections[row][lane], n, first + lane);
     }
   });
+}
+
+// Whether a free or inside voxel is among the neighbours of voxel lin: nearPropagating, then the
+// neighbours themselves. Most voxels that the occupied sphere's surface passes have none, even in
+// blocks that hold free space.
+inline bool hasPropagatingNeighbour(BlockNode* node, int lin) {
+  if (!nearPropagating(node, lin)) return false;
+  if (!rowsInBlocks(lin)) {
+    bool found = false;
+    forEachNeighbour(node, lin, [&](int, BlockNode* n, int l) {
+      found |= propagates(n->state[l] & kClassMask);
+    });
+    return found;
+  }
+  uint32_t lanes = 0;
+  forEachRow(node, lin,
+             [&](int row, BlockNode* n, int first) { lanes |= propagatingLanes(n, first, row); });
+  return lanes != 0;
 }
 
 constexpr int kLast = kVoxelsPerSide - 1;
@@ -557,7 +579,21 @@ class EsdfIntegrator::Impl {
     std::sort(blocks.begin(), blocks.end(), indexLess);
     blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
     for (const BlockIndex& b : blocks) {
-      classifyVoxels(b, TsdfStar(tsdf, b), nullptr, BlockVoxels::all());
+      classifyVoxels(b, TsdfStar(tsdf, b), nullptr, BlockVoxels::all(), /*from_empty=*/true);
+    }
+    // Of the occupied sites, only those next to free or inside voxels seed the wavefront: no
+    // distance reads the rest, most of the occupied sphere.
+    for (const BlockIndex& b : blocks) {
+      BlockNode* node = find(b);
+      if (node == nullptr || std::none_of(node->neighbours.begin(), node->neighbours.end(),
+                                          [](const BlockNode* n) { return n->propagating > 0; })) {
+        continue;
+      }
+      for (int lin = 0; lin < kVoxelsPerBlock; ++lin) {
+        if (node->state[lin] == kOccupied && hasPropagatingNeighbour(node, lin)) {
+          seeds_.push_back({node, lin, 0});
+        }
+      }
     }
     propagate(/*incremental=*/false);
 
@@ -811,9 +847,9 @@ class EsdfIntegrator::Impl {
   }
 
   // Classifies the voxels `which` of block b (node: nullptr if not allocated yet), reclassifying
-  // those whose class changed.
+  // those whose class changed; from_empty: for recompute(), every block's first classification.
   void classifyVoxels(const BlockIndex& b, const TsdfStar& star, BlockNode* node,
-                      const BlockVoxels& which) {
+                      const BlockVoxels& which, bool from_empty = false) {
     const VoxelIndex origin = b * kVoxelsPerSide;
     const Span whole{origin.x(), origin.x() + kVoxelsPerSide - 1};
     // Blocks clear of a sphere's surface by a voxel take their spans without asking rowSpan.
@@ -840,7 +876,17 @@ class EsdfIntegrator::Impl {
           const int x = std::countr_zero(row);
           const int lin = x + kVoxelsPerSide * (y + kVoxelsPerSide * z);
           const Classified c = classify(star, x, y, z, origin.x() + x, clear, occupied);
-          if (!unchanged(node, lin, c)) reclassify(node, b, lin, c);
+          if (unchanged(node, lin, c)) continue;
+          if (from_empty && c.cls == kOccupied) {
+            // From scratch, an occupied site is neither published nor a parent yet: recompute()
+            // seeds the wavefront with those next to free or inside voxels once all are
+            // classified.
+            if (node == nullptr) node = allocate(b);
+            count(node, kUnknown, kOccupied);
+            node->state[lin] = kOccupied;
+          } else {
+            reclassify(node, b, lin, c);
+          }
         }
       }
     }
@@ -904,12 +950,12 @@ class EsdfIntegrator::Impl {
                 const BlockIndex b(lo.x() + i, by, bz);
                 if (node == nullptr) node = allocate(b);
                 const uint8_t old = node->state[lin] & kClassMask;
-                // Between unknown and occupied far from free and inside voxels (most of the
+                // Between unknown and occupied with no free or inside neighbour (most of the
                 // sphere's edge): no distance reads it, and the layer shows both as unknown, so
                 // only the class changes (both have value 0 and no parent). Only here: the
-                // classification is done, so the counts nearPropagating reads are those with
-                // which propagate() would skip the voxel.
-                if (!published(old) && !published(c.cls) && !nearPropagating(node, lin)) {
+                // classification is done, so the neighbours' classes are final (this pass changes
+                // only unknown and occupied ones).
+                if (!published(old) && !published(c.cls) && !hasPropagatingNeighbour(node, lin)) {
                   count(node, old, c.cls);
                   node->state[lin] = static_cast<uint8_t>((node->state[lin] & kTouched) | c.cls);
                 } else {
@@ -1161,7 +1207,8 @@ class EsdfIntegrator::Impl {
 
   bool has_initial_ = false;
   Eigen::Vector3d initial_ = Eigen::Vector3d::Zero();
-  bool built_ = false;  // nodes_ hold the state of the last call's result
+  bool built_ = false;       // nodes_ hold the state of the last call's result
+  bool rebuilding_ = false;  // recompute() is classifying from empty
   Eigen::Vector3d position_ = Eigen::Vector3d::Zero();
   std::unordered_map<BlockIndex, std::unique_ptr<BlockNode>, IndexHash> nodes_;
   const std::unique_ptr<BlockNode> none_ = std::make_unique<BlockNode>(BlockIndex::Zero(), nullptr);
