@@ -941,15 +941,19 @@ class EsdfIntegrator::Impl {
               for (int x = x0; x <= x1; ++x) {
                 const int i = (x >> 4) - lo.x();
                 const int lin = (x & 15) + kVoxelsPerSide * ((y & 15) + kVoxelsPerSide * (z & 15));
-                // Observed voxels do not depend on the spheres (and were classified with their
-                // block if it changed).
-                if (row_tsdf_[i] != nullptr && observed(&row_tsdf_[i]->voxels[lin])) continue;
-                const Classified c = unobservedClass(x, clear, now);
-                if (unchanged(row_nodes_[i], lin, c)) continue;
                 BlockNode*& node = row_nodes_[i];
+                const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
+                // Observed voxels do not depend on the spheres (and were classified with their
+                // block if it changed): their classes are published ones, which an unobserved
+                // voxel has only as free in the clear sphere. The TSDF tells those apart.
+                if (published(old) && row_tsdf_[i] != nullptr &&
+                    observed(&row_tsdf_[i]->voxels[lin])) {
+                  continue;
+                }
+                const Classified c = unobservedClass(x, clear, now);
+                if (unchanged(node, lin, c)) continue;
                 const BlockIndex b(lo.x() + i, by, bz);
                 if (node == nullptr) node = allocate(b);
-                const uint8_t old = node->state[lin] & kClassMask;
                 // Between unknown and occupied with no free or inside neighbour (most of the
                 // sphere's edge): no distance reads it, and the layer shows both as unknown, so
                 // only the class changes (both have value 0 and no parent). Only here: the
