@@ -53,14 +53,19 @@ class VoxelLookup {
 
   // The voxel, or nullptr when its block is not allocated.
   const TsdfVoxel* voxel(const VoxelIndex& v) {
-    const BlockIndex b = blockOfVoxel(v);
+    const TsdfLayer::BlockType* b = block(blockOfVoxel(v));
+    return b != nullptr ? &b->voxels[linearIndexInBlock(v)] : nullptr;
+  }
+
+  // The block, or nullptr when it is not allocated.
+  const TsdfLayer::BlockType* block(const BlockIndex& b) {
     Slot& slot = slots_[(b.x() & 3) | (b.y() & 3) << 2 | (b.z() & 3) << 4];
     if (!slot.valid || slot.index != b) {
       slot.index = b;
       slot.block = layer_.block(b);
       slot.valid = true;
     }
-    return slot.block != nullptr ? &slot.block->voxels[linearIndexInBlock(v)] : nullptr;
+    return slot.block;
   }
 
  private:
@@ -135,14 +140,28 @@ bool occluded(VoxelLookup& lookup, const Eigen::Vector3d& from, const Eigen::Vec
       t_delta[a] = 0.0;
     }
   }
+  // The walk's voxel as its block, looked up again only where the walk leaves it, and its index
+  // in the block.
+  constexpr int kStrides[3] = {1, kVoxelsPerSide, kVoxelsPerSide * kVoxelsPerSide};
+  const TsdfLayer::BlockType* block = lookup.block(blockOfVoxel(current));
+  int lin = linearIndexInBlock(current);
   for (int n = 0; n < total; ++n) {
-    const TsdfVoxel* voxel = lookup.voxel(current);
-    if (voxel != nullptr && voxel->weight >= min_weight && voxel->distance <= 0.0f) return true;
+    if (block != nullptr) {
+      const TsdfVoxel& voxel = block->voxels[lin];
+      if (voxel.weight >= min_weight && voxel.distance <= 0.0f) return true;
+    }
     int axis = -1;
     for (int a = 0; a < 3; ++a) {
       if (remaining[a] > 0 && (axis < 0 || t_max[a] < t_max[axis])) axis = a;
     }
     current[axis] += step[axis];
+    // Into the next block where the coordinate wraps within a block's side.
+    if ((current[axis] & (kVoxelsPerSide - 1)) == (step[axis] > 0 ? 0 : kVoxelsPerSide - 1)) {
+      block = lookup.block(blockOfVoxel(current));
+      lin = linearIndexInBlock(current);
+    } else {
+      lin += step[axis] * kStrides[axis];
+    }
     t_max[axis] += t_delta[axis];
     --remaining[axis];
   }
