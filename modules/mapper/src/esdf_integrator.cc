@@ -937,10 +937,11 @@ class EsdfIntegrator::Impl {
               }
               looked_up = true;
             }
+            const int row = kVoxelsPerSide * ((y & 15) + kVoxelsPerSide * (z & 15));
             const auto reclassifyRange = [&](int x0, int x1) {
               for (int x = x0; x <= x1; ++x) {
                 const int i = (x >> 4) - lo.x();
-                const int lin = (x & 15) + kVoxelsPerSide * ((y & 15) + kVoxelsPerSide * (z & 15));
+                const int lin = (x & 15) + row;
                 BlockNode*& node = row_nodes_[i];
                 const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
                 // Observed voxels do not depend on the spheres (and were classified with their
