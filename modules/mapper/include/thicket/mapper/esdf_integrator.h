@@ -23,9 +23,11 @@
 //
 // update() is a raise/lower wavefront over the changes only (a dynamic shortest-path tree with a
 // parent direction per voxel); its result equals recompute() on the same TSDF and positions (the
-// same flags and blocks, distances within float rounding). An ESDF block is allocated exactly when
-// one of its voxels is observed, so the occupied sphere moving through unobserved space changes no
-// block. Deterministic: the same calls give the same bytes.
+// same flags and blocks, and the same distances bit for bit on the tested flights: each is the one
+// fixed point of the propagation, whatever order the wavefront visits voxels in; only the parents
+// may differ where paths tie). An ESDF block is allocated exactly when one of its voxels is
+// observed, so the occupied sphere moving through unobserved space changes no block.
+// Deterministic: the same calls give the same bytes.
 #pragma once
 
 #include <cstdint>
