@@ -255,15 +255,16 @@ inline void forEachRow(BlockNode* node, int lin, F&& f) {
   }
 }
 
+// Whether the block or one of its neighbours holds a free or inside voxel.
+inline bool blockNearPropagating(const BlockNode* node) {
+  return std::any_of(node->neighbours.begin(), node->neighbours.end(),
+                     [](const BlockNode* n) { return n->propagating > 0; });
+}
+
 // Whether a free or inside voxel may be among the neighbours of voxel lin: false skips the scan
 // of sites deep in unobserved space, which the moving occupied sphere creates and removes.
 inline bool nearPropagating(const BlockNode* node, int lin) {
-  if (node->propagating > 0) return true;
-  if (interior(lin)) return false;
-  for (const BlockNode* other : node->neighbours) {
-    if (other->propagating > 0) return true;
-  }
-  return false;
+  return node->propagating > 0 || (!interior(lin) && blockNearPropagating(node));
 }
 
 // Calls f(direction, node, linear index) for each neighbour (in the empty stand-in if its block is
@@ -299,15 +300,6 @@ constexpr std::array<uint32_t, 9> kRowLanes = [] {
   return masks;
 }();
 
-// The free and inside voxels of the row of three neighbours that starts at voxel first of node
-// (row: its place in kRows' order), as bit 0 of each lane's byte: from the row's four state bytes
-// in a word, those whose class's bits 0 and 1 differ and bit 2 is clear (free, 1, or inside, 2).
-inline uint32_t propagatingLanes(const BlockNode* n, int first, int row) {
-  uint32_t states;
-  std::memcpy(&states, &n->state[first], sizeof(states));
-  return (states ^ (states >> 1)) & ~(states >> 2) & kRowLanes[row];
-}
-
 // Calls f(direction, node, linear index) for each free or inside neighbour of voxel lin, in
 // direction order, as forEachNeighbour does for all. Where the rows of neighbours lie each in one
 // block, a row's three classes are tested at once (four state bytes in a word): next to a new site
@@ -321,7 +313,12 @@ inline void forEachPropagatingNeighbour(BlockNode* node, int lin, F&& f) {
     return;
   }
   forEachRow(node, lin, [&](int row, BlockNode* n, int first) {
-    for (uint32_t lanes = propagatingLanes(n, first, row); lanes != 0; lanes &= lanes - 1) {
+    uint32_t states;
+    std::memcpy(&states, &n->state[first], sizeof(states));
+    // Bit 0 of a lane's byte: free (1) or inside (2), the class's bits 0 and 1 differing and its
+    // bit 2 clear.
+    for (uint32_t lanes = (states ^ (states >> 1)) & ~(states >> 2) & kRowLanes[row]; lanes != 0;
+         lanes &= lanes - 1) {
       const int lane = std::countr_zero(lanes) / 8;
       f(kRowDirections[row][lane], n, first + lane);
     }
@@ -332,18 +329,11 @@ inline void forEachPropagatingNeighbour(BlockNode* node, int lin, F&& f) {
 // neighbours themselves. Most voxels that the occupied sphere's surface passes have none, even in
 // blocks that hold free space.
 inline bool hasPropagatingNeighbour(BlockNode* node, int lin) {
-  if (!nearPropagating(node, lin)) return false;
-  if (!rowsInBlocks(lin)) {
-    bool found = false;
-    forEachNeighbour(node, lin, [&](int, BlockNode* n, int l) {
-      found |= propagates(n->state[l] & kClassMask);
-    });
-    return found;
+  bool found = false;
+  if (nearPropagating(node, lin)) {
+    forEachPropagatingNeighbour(node, lin, [&](int, BlockNode*, int) { found = true; });
   }
-  uint32_t lanes = 0;
-  forEachRow(node, lin,
-             [&](int row, BlockNode* n, int first) { lanes |= propagatingLanes(n, first, row); });
-  return lanes != 0;
+  return found;
 }
 
 constexpr int kLast = kVoxelsPerSide - 1;
@@ -585,10 +575,7 @@ class EsdfIntegrator::Impl {
     // distance reads the rest, most of the occupied sphere.
     for (const BlockIndex& b : blocks) {
       BlockNode* node = find(b);
-      if (node == nullptr || std::none_of(node->neighbours.begin(), node->neighbours.end(),
-                                          [](const BlockNode* n) { return n->propagating > 0; })) {
-        continue;
-      }
+      if (node == nullptr || !blockNearPropagating(node)) continue;
       for (int lin = 0; lin < kVoxelsPerBlock; ++lin) {
         if (node->state[lin] == kOccupied && hasPropagatingNeighbour(node, lin)) {
           seeds_.push_back({node, lin, 0});
@@ -803,6 +790,15 @@ class EsdfIntegrator::Impl {
     if (node->known == 0 && old != kUnknown) emptied_.push_back(node);
   }
 
+  // Gives voxel lin, unknown or occupied, the other of those classes, cls, where no distance reads
+  // it: the layer shows both as unknown, and both have value 0 and no parent, so only the class
+  // and the counts change, outside the wavefront's lists.
+  void flipUnpublished(BlockNode* node, int lin, uint8_t cls) {
+    uint8_t& state = node->state[lin];
+    count(node, state & kClassMask, cls);
+    state = static_cast<uint8_t>((state & kTouched) | cls);
+  }
+
   // Records the voxel's state before the call, once.
   void touch(BlockNode* node, int lin) {
     if (!(node->state[lin] & kTouched)) record(node, lin);
@@ -882,8 +878,7 @@ class EsdfIntegrator::Impl {
             // seeds the wavefront with those next to free or inside voxels once all are
             // classified.
             if (node == nullptr) node = allocate(b);
-            count(node, kUnknown, kOccupied);
-            node->state[lin] = kOccupied;
+            flipUnpublished(node, lin, kOccupied);
           } else {
             reclassify(node, b, lin, c);
           }
@@ -956,13 +951,10 @@ class EsdfIntegrator::Impl {
                 const BlockIndex b(lo.x() + i, by, bz);
                 if (node == nullptr) node = allocate(b);
                 // Between unknown and occupied with no free or inside neighbour (most of the
-                // sphere's edge): no distance reads it, and the layer shows both as unknown, so
-                // only the class changes (both have value 0 and no parent). Only here: the
-                // classification is done, so the neighbours' classes are final (this pass changes
-                // only unknown and occupied ones).
+                // sphere's edge), in place. Only here: the classification is done, so the
+                // neighbours' classes are final (this pass changes only unknown and occupied ones).
                 if (!published(old) && !published(c.cls) && !hasPropagatingNeighbour(node, lin)) {
-                  count(node, old, c.cls);
-                  node->state[lin] = static_cast<uint8_t>((node->state[lin] & kTouched) | c.cls);
+                  flipUnpublished(node, lin, c.cls);
                 } else {
                   reclassify(node, b, lin, c);
                 }
@@ -1212,8 +1204,7 @@ class EsdfIntegrator::Impl {
 
   bool has_initial_ = false;
   Eigen::Vector3d initial_ = Eigen::Vector3d::Zero();
-  bool built_ = false;       // nodes_ hold the state of the last call's result
-  bool rebuilding_ = false;  // recompute() is classifying from empty
+  bool built_ = false;  // nodes_ hold the state of the last call's result
   Eigen::Vector3d position_ = Eigen::Vector3d::Zero();
   std::unordered_map<BlockIndex, std::unique_ptr<BlockNode>, IndexHash> nodes_;
   const std::unique_ptr<BlockNode> none_ = std::make_unique<BlockNode>(BlockIndex::Zero(), nullptr);
