@@ -1,5 +1,7 @@
 #include "thicket/common/esdf_query.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 
@@ -20,16 +22,36 @@ std::optional<Cell> cellAround(const Eigen::Vector3d& p, double voxel_size) {
   return Cell{lower.cast<int>(), scaled - lower};
 }
 
+// The 8 voxels of the cell whose lowest voxel is base, x fastest (corner i at base + (i & 1,
+// i >> 1 & 1, i >> 2)); nullptr where the block is not allocated. Each block the cell touches is
+// looked up once: usually one, as a cell crosses a block face only from a block's last layer.
+template <typename Voxel>
+std::array<const Voxel*, 8> cellVoxels(const Layer<Voxel>& layer, const VoxelIndex& base) {
+  const BlockIndex first = blockOfVoxel(base);
+  // Per axis, 1 where the cell's upper voxels lie in the next block.
+  const VoxelIndex across = blockOfVoxel(base + VoxelIndex::Ones()) - first;
+  const int leaves = across.x() | across.y() << 1 | across.z() << 2;
+  std::array<const typename Layer<Voxel>::BlockType*, 8> blocks{};
+  std::array<const Voxel*, 8> voxels{};
+  for (int i = 0; i < 8; ++i) {
+    const VoxelIndex corner(i & 1, i >> 1 & 1, i >> 2);
+    // The corner's block is that of the corner with only the axes that leave: an earlier one, or
+    // this one.
+    const int same = i & leaves;
+    blocks[i] = same == i ? layer.block(first + corner.cwiseProduct(across)) : blocks[same];
+    if (blocks[i] != nullptr) voxels[i] = &blocks[i]->voxels[linearIndexInBlock(base + corner)];
+  }
+  return voxels;
+}
+
 }  // namespace
 
 bool tsdfObservedAround(const TsdfLayer& tsdf, const Eigen::Vector3d& p) {
   const std::optional<Cell> cell = cellAround(p, tsdf.voxelSize());
   if (!cell) return false;
-  for (int i = 0; i < 8; ++i) {
-    const TsdfVoxel* t = tsdf.voxel(cell->base + VoxelIndex(i & 1, (i >> 1) & 1, i >> 2));
-    if (t == nullptr || !(t->weight > 0)) return false;
-  }
-  return true;
+  const std::array<const TsdfVoxel*, 8> voxels = cellVoxels(tsdf, cell->base);
+  return std::all_of(voxels.begin(), voxels.end(),
+                     [](const TsdfVoxel* t) { return t != nullptr && t->weight > 0; });
 }
 
 EsdfSample sampleEsdf(const EsdfLayer& esdf, const Eigen::Vector3d& p) {
@@ -38,21 +60,12 @@ EsdfSample sampleEsdf(const EsdfLayer& esdf, const Eigen::Vector3d& p) {
   if (!cell) return {};
   const VoxelIndex& base = cell->base;
   const Eigen::Vector3d& t = cell->t;
+  // This is the planner's inner loop.
+  const std::array<const EsdfVoxel*, 8> voxels = cellVoxels(esdf, base);
   double values[2][2][2];
-  // Usually all 8 voxels share one block: look it up once (this is the planner's inner loop).
-  const BlockIndex block_index = blockOfVoxel(base);
-  const bool one_block = blockOfVoxel(base + VoxelIndex(1, 1, 1)) == block_index;
-  const EsdfLayer::BlockType* block = one_block ? esdf.block(block_index) : nullptr;
-  if (one_block && block == nullptr) return {};
-  for (int dz = 0; dz < 2; ++dz) {
-    for (int dy = 0; dy < 2; ++dy) {
-      for (int dx = 0; dx < 2; ++dx) {
-        const VoxelIndex v = base + VoxelIndex(dx, dy, dz);
-        const EsdfVoxel* voxel = one_block ? &block->voxels[linearIndexInBlock(v)] : esdf.voxel(v);
-        if (voxel == nullptr || !voxel->observed) return {};
-        values[dz][dy][dx] = voxel->distance;
-      }
-    }
+  for (int i = 0; i < 8; ++i) {
+    if (voxels[i] == nullptr || !voxels[i]->observed) return {};
+    values[i >> 2][i >> 1 & 1][i & 1] = voxels[i]->distance;
   }
   // Interpolate along x, then y, then z, keeping the partial derivatives of each stage.
   double along_x[2][2], d_along_x[2][2];

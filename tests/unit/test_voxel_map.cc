@@ -105,6 +105,31 @@ TEST(EsdfQuery, TrilinearIsExactOnLinearFieldsAndGradientsMatchFiniteDifferences
   }
 }
 
+// Cells whose 8 voxels lie in 1, 2, 4 or 8 blocks (across a block's face, edge or corner, on
+// either side of the origin) read each voxel from its own block.
+TEST(EsdfQuery, CellsAcrossBlockFacesEdgesAndCornersReadEachVoxelFromItsBlock) {
+  const auto linear = [](const Eigen::Vector3d& p) {
+    return 0.3 * p.x() - 0.5 * p.y() + 0.7 * p.z() + 1;
+  };
+  const EsdfLayer layer = fieldLayer(0.2, linear);
+  int crossings = 0;
+  for (const int x : {-2, -1, 0, 14, 15}) {
+    for (const int y : {-1, 0, 15}) {
+      for (const int z : {-1, 0, 15}) {
+        const VoxelIndex base(x, y, z);
+        crossings += blockOfVoxel(base) != blockOfVoxel(base + VoxelIndex::Ones());
+        // A point a third of the way across the cell from base's centre.
+        const Eigen::Vector3d p = layer.voxelCenter(base) + Eigen::Vector3d(0.07, 0.05, 0.11);
+        const EsdfSample sample = sampleEsdf(layer, p);
+        ASSERT_TRUE(sample.known) << base.transpose();
+        EXPECT_NEAR(sample.distance, linear(p), 1e-5) << base.transpose();
+        EXPECT_LT((sample.gradient - Eigen::Vector3d(0.3, -0.5, 0.7)).norm(), 1e-5);
+      }
+    }
+  }
+  EXPECT_EQ(crossings, 5 * 3 * 3 - 3);  // all but the cells at (-2, 0 or 14; 0; 0)
+}
+
 TEST(EsdfQuery, AnyUnobservedOrMissingCornerIsUnknown) {
   EsdfLayer layer = fieldLayer(0.2, [](const Eigen::Vector3d&) { return 1.0; });
   const Eigen::Vector3d p(0.25, 0.25, 0.25);  // between voxels 0 and 1 on each axis

@@ -43,41 +43,6 @@ uint64_t mortonCode(int64_t i, int64_t j, int64_t k) {
          spreadBits(static_cast<uint64_t>(k)) << 2;
 }
 
-// TSDF voxel lookups through a small direct-mapped cache of blocks: a frustum spans a few dozen
-// blocks, and consecutive frustum points (and the voxels of a ray) mostly share one, so nearly
-// every lookup skips the hash map. Blocks whose indices agree modulo 4 on every axis (6.4 m apart
-// at 0.1 m voxels) share a slot: a conflict costs one more lookup, never a wrong voxel.
-class VoxelLookup {
- public:
-  explicit VoxelLookup(const TsdfLayer& layer) : layer_(layer) {}
-
-  // The voxel, or nullptr when its block is not allocated.
-  const TsdfVoxel* voxel(const VoxelIndex& v) {
-    const TsdfLayer::BlockType* b = block(blockOfVoxel(v));
-    return b != nullptr ? &b->voxels[linearIndexInBlock(v)] : nullptr;
-  }
-
-  // The block, or nullptr when it is not allocated.
-  const TsdfLayer::BlockType* block(const BlockIndex& b) {
-    Slot& slot = slots_[(b.x() & 3) | (b.y() & 3) << 2 | (b.z() & 3) << 4];
-    if (!slot.valid || slot.index != b) {
-      slot.index = b;
-      slot.block = layer_.block(b);
-      slot.valid = true;
-    }
-    return slot.block;
-  }
-
- private:
-  struct Slot {
-    bool valid = false;
-    BlockIndex index = BlockIndex::Zero();
-    const TsdfLayer::BlockType* block = nullptr;
-  };
-  const TsdfLayer& layer_;
-  std::array<Slot, 64> slots_{};
-};
-
 // The pose as a rotation matrix and a translation, after checking it.
 struct CheckedPose {
   Eigen::Matrix3d rotation;
@@ -118,8 +83,9 @@ bool isUnknown(const TsdfVoxel* voxel, double min_weight) {
 // `from` (in voxel `current`) to `to` (in voxel `target`), `target` itself excluded. Walks the
 // voxels the segment passes through (Amanatides & Woo), taking exactly as many steps along each
 // axis as separate the two voxels, so that the walk ends in `target` whatever the rounding.
-bool occluded(VoxelLookup& lookup, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-              VoxelIndex current, const VoxelIndex& target, double voxel_size, double min_weight) {
+bool occluded(VoxelLookup<TsdfVoxel>& lookup, const Eigen::Vector3d& from,
+              const Eigen::Vector3d& to, VoxelIndex current, const VoxelIndex& target,
+              double voxel_size, double min_weight) {
   const Eigen::Vector3d start = from / voxel_size;
   const Eigen::Vector3d direction = to / voxel_size - start;  // t in [0, 1] along the segment
   int remaining[3];

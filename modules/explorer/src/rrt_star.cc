@@ -188,9 +188,11 @@ class RrtStarSelector final : public GoalSelector {
         request.goal.cwiseMax(options_.flight_volume_min).cwiseMin(options_.flight_volume_max);
     const std::string clamped = goal != request.goal ? "goal clamped into the flight volume; " : "";
 
-    const std::optional<double> clearance = optimistic_
-                                                ? tsdfTreeClearance(*maps.tsdf, start)
-                                                : treeClearance(options_, *maps.esdf, start);
+    // The tree's TSDF lookups, mostly in a few blocks along its edges.
+    std::optional<VoxelLookup<TsdfVoxel>> tsdf;
+    if (optimistic_) tsdf.emplace(*maps.tsdf);
+    const std::optional<double> clearance =
+        optimistic_ ? tsdfTreeClearance(*tsdf, start) : treeClearance(options_, *maps.esdf, start);
     if (!clearance) {
       proposal.reason = optimistic_
                             ? "the start is inside or too close to an obstacle in the TSDF"
@@ -198,7 +200,7 @@ class RrtStarSelector final : public GoalSelector {
       return proposal;
     }
     const auto free = [&](const Eigen::Vector3d& p) {
-      return optimistic_ ? tsdfFree(*maps.tsdf, p, *clearance)
+      return optimistic_ ? tsdfFree(*tsdf, p, *clearance)
                          : esdfFree(options_, *maps.esdf, p, *clearance);
     };
     if (!free(start)) {  // not expected after the clearance policy, but OMPL must not see it
@@ -294,20 +296,20 @@ class RrtStarSelector final : public GoalSelector {
 
  private:
   // The TSDF voxel holding p, or nullptr when it is unknown.
-  const TsdfVoxel* knownTsdf(const TsdfLayer& tsdf, const Eigen::Vector3d& p) const {
-    const TsdfVoxel* voxel = tsdf.voxel(tsdf.voxelIndex(p));
+  const TsdfVoxel* knownTsdf(VoxelLookup<TsdfVoxel>& tsdf, const Eigen::Vector3d& p) const {
+    const TsdfVoxel* voxel = tsdf.voxelAt(p);
     return voxel != nullptr && voxel->weight >= options_.gain.min_weight ? voxel : nullptr;
   }
 
   // In the flight volume, and unknown or at least `clearance` from surfaces in the TSDF.
-  bool tsdfFree(const TsdfLayer& tsdf, const Eigen::Vector3d& p, double clearance) const {
+  bool tsdfFree(VoxelLookup<TsdfVoxel>& tsdf, const Eigen::Vector3d& p, double clearance) const {
     if (!inFlightVolume(options_, p)) return false;
     const TsdfVoxel* voxel = knownTsdf(tsdf, p);
     return voxel == nullptr || voxel->distance >= clearance;
   }
 
   // treeClearance's policy on the TSDF: an unknown start has min_clearance.
-  std::optional<double> tsdfTreeClearance(const TsdfLayer& tsdf,
+  std::optional<double> tsdfTreeClearance(VoxelLookup<TsdfVoxel>& tsdf,
                                           const Eigen::Vector3d& start) const {
     const TsdfVoxel* voxel = knownTsdf(tsdf, start);
     const double distance = voxel == nullptr ? options_.min_clearance : voxel->distance;

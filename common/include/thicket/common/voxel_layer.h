@@ -228,6 +228,47 @@ class Layer {
   std::unordered_map<BlockIndex, std::unique_ptr<BlockType>, IndexHash> blocks_;
 };
 
+/// Voxel lookups in a layer through a small direct-mapped cache of blocks, for many lookups that
+/// mostly fall in a few blocks (a frustum's points, a ray's voxels, a tree's edges): nearly every
+/// lookup skips the hash map. Blocks whose indices agree modulo 4 on every axis share a slot: a
+/// conflict costs one more lookup, never a wrong voxel. Valid while no block of the layer is
+/// added or removed.
+template <typename Voxel>
+class VoxelLookup {
+ public:
+  using BlockType = typename Layer<Voxel>::BlockType;
+
+  explicit VoxelLookup(const Layer<Voxel>& layer) : layer_(layer) {}
+
+  /// The voxel, or nullptr when its block is not allocated.
+  const Voxel* voxel(const VoxelIndex& v) {
+    const BlockType* b = block(blockOfVoxel(v));
+    return b != nullptr ? &b->voxels[linearIndexInBlock(v)] : nullptr;
+  }
+  /// The voxel holding point p (finite), or nullptr when its block is not allocated.
+  const Voxel* voxelAt(const Eigen::Vector3d& p) { return voxel(layer_.voxelIndex(p)); }
+
+  /// The block, or nullptr when it is not allocated.
+  const BlockType* block(const BlockIndex& b) {
+    Slot& slot = slots_[(b.x() & 3) | (b.y() & 3) << 2 | (b.z() & 3) << 4];
+    if (!slot.valid || slot.index != b) {
+      slot.index = b;
+      slot.block = layer_.block(b);
+      slot.valid = true;
+    }
+    return slot.block;
+  }
+
+ private:
+  struct Slot {
+    bool valid = false;
+    BlockIndex index = BlockIndex::Zero();
+    const BlockType* block = nullptr;
+  };
+  const Layer<Voxel>& layer_;
+  std::array<Slot, 64> slots_{};
+};
+
 /// Whether two voxels hold the same values, floats compared bit for bit (so -0 differs from 0 and
 /// a NaN equals itself); padding bytes, which hold no value, are not compared.
 inline bool identicalVoxels(const TsdfVoxel& a, const TsdfVoxel& b) {
