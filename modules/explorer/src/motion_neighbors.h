@@ -4,10 +4,10 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <utility>
@@ -35,11 +35,12 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
 
   void clear() override {
     Base::clear();
-    points_.clear();
+    for (std::vector<double>& axis : points_) axis.clear();
   }
   void add(const T& data) override {
     Base::add(data);
-    points_.push_back(position_(data));
+    const Eigen::Vector3d p = position_(data);
+    for (int a = 0; a < 3; ++a) points_[a].push_back(p[a]);
   }
   void add(const std::vector<T>& data) override {
     for (const T& d : data) add(d);
@@ -48,7 +49,9 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
     for (std::size_t i = this->data_.size(); i-- > 0;) {
       if (this->data_[i] == data) {
         this->data_.erase(this->data_.begin() + static_cast<std::ptrdiff_t>(i));
-        points_.erase(points_.begin() + static_cast<std::ptrdiff_t>(i));
+        for (std::vector<double>& axis : points_) {
+          axis.erase(axis.begin() + static_cast<std::ptrdiff_t>(i));
+        }
         return true;
       }
     }
@@ -60,10 +63,9 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
       throw std::logic_error("PointNearestNeighbors: nearest() of an empty set");
     }
     measure(data);
+    // The first at the smallest square (bounded should a position be NaN, whose square none is).
     std::size_t best = 0;
-    for (std::size_t i = 1; i < squared_.size(); ++i) {
-      if (squared_[i] < squared_[best]) best = i;
-    }
+    while (best + 1 < squared_.size() && squared_[best] != lowest_) ++best;
     // An earlier element whose larger squared distance rounds to the same distance ties, and
     // wins.
     const double d = std::sqrt(squared_[best]);
@@ -95,98 +97,109 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
   }
 
   // Every element's squared distance to data, in insertion order: distance() before its square
-  // root, which only the elements ranked need (it rounds, so ties are settled on distances).
+  // root, which only the elements ranked need (it rounds, so ties are settled on distances); and
+  // the smallest and the largest of them (NaNs left out).
   void measure(const T& data) const {
     const Eigen::Vector3d q = position_(data);
-    squared_.resize(points_.size());
-    for (std::size_t i = 0; i < points_.size(); ++i) squared_[i] = squaredDistance(points_[i], q);
+    const std::size_t n = points_[0].size();
+    squared_.resize(n);
+    const double* x = points_[0].data();
+    const double* y = points_[1].data();
+    const double* z = points_[2].data();
+    double* out = squared_.data();
+    // squaredDistance(point, q), two elements at a time: the same operations lane by lane.
+    std::size_t i = 0;
+    const Doubles2 qx = {q.x(), q.x()}, qy = {q.y(), q.y()}, qz = {q.z(), q.z()};
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    Doubles2 lowest = {kInf, kInf}, highest = {0, 0};
+    for (; i + 2 <= n; i += 2) {
+      Doubles2 px, py, pz;
+      std::memcpy(&px, x + i, sizeof(px));
+      std::memcpy(&py, y + i, sizeof(py));
+      std::memcpy(&pz, z + i, sizeof(pz));
+      const Doubles2 dx = px - qx, dy = py - qy, dz = pz - qz;
+      const Doubles2 squares = dx * dx + dy * dy + dz * dz;
+      std::memcpy(out + i, &squares, sizeof(squares));
+      lowest = squares < lowest ? squares : lowest;
+      highest = squares > highest ? squares : highest;
+    }
+    lowest_ = std::min(lowest[0], lowest[1]);
+    highest_ = std::max(highest[0], highest[1]);
+    for (; i < n; ++i) {
+      out[i] = squaredDistance({x[i], y[i], z[i]}, q);
+      lowest_ = std::min(lowest_, out[i]);
+      highest_ = std::max(highest_, out[i]);
+    }
   }
 
-  // The at most k elements within radius, by (distance, insertion).
+  // The at most k elements within radius, by (distance, insertion). RRT*'s k is over half of a
+  // grown tree, so nearly every element is ranked: a counting sort on the squared distances
+  // (kBucketsPerElement buckets per element, spread linearly between the smallest and the largest
+  // candidate: in a 3-D tree the squares come about evenly spread) puts the candidates nearly in
+  // order, and an insertion sort on (distance, insertion) finishes, moving a candidate only past
+  // the few of its own bucket or next to it. Comparison sorts mispredict about every other
+  // comparison; this has no branch on the data but the insertion sort's.
   void rank(const T& data, std::vector<T>& nbh, double radius, std::size_t k) const {
     measure(data);
-    // Each candidate as one integer key, (the top 32 bits of its squared distance, index): a
-    // squared distance is not negative, so its bits order as it does. Those a few ulps beyond
-    // radius^2 stay until their distance is known.
+    nbh.clear();
+    // Candidates a few ulps beyond radius^2 stay until their distance is known.
     const double limit = radius * radius * kSameDistance;
-    ranked_.clear();
-    for (std::size_t i = 0; i < squared_.size(); ++i) {
-      if (squared_[i] <= limit) {
-        ranked_.push_back((std::bit_cast<uint64_t>(squared_[i]) >> 32) << 32 | i);
-      }
+    const std::size_t n = squared_.size();
+    if (n == 0 || k == 0 || !(lowest_ <= limit)) return;
+    // The buckets span the candidates' squares (those up to limit). bucket(s) does not decrease as
+    // s grows (a subtraction, a product by a positive factor and a truncation are each
+    // monotonic), whatever it rounds.
+    const double lo = lowest_;
+    const double hi = std::min(highest_, limit);
+    const std::size_t buckets = kBucketsPerElement * n;
+    double scale = static_cast<double>(buckets) / (hi - lo);
+    if (!std::isfinite(scale)) scale = 0;  // all squares equal, or too close to divide by
+    const double top = static_cast<double>(buckets - 1);
+    const auto bucket = [&](double s) {
+      // Not NaN but for an infinite square (with scale 0): the last bucket then.
+      const double t = (s - lo) * scale;
+      return t < top ? static_cast<uint32_t>(t) : static_cast<uint32_t>(buckets - 1);
+    };
+    // A counting sort of all elements by bucket, stable (so in insertion order within one), those
+    // beyond the radius in one more bucket at the end; without a branch that depends on the data,
+    // which would mispredict at every other element.
+    count_.assign(buckets + 1, 0);
+    bucket_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double s = squared_[i];
+      bucket_[i] = s <= limit ? bucket(s) : static_cast<uint32_t>(buckets);
+      ++count_[bucket_[i]];
     }
-    if (k < ranked_.size()) keepNearest(k);
-    sortRanked();
-    // By (distance, index): keys whose top bits differ are in distance order (their squares
-    // differ by more than a millionth), those that share them in index order, which a stable
-    // insertion sort on their distances keeps for equal ones.
-    const std::size_t n = ranked_.size();
-    distances_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) distances_[i] = std::sqrt(squared_[index(ranked_[i])]);
-    for (std::size_t i = 1; i < n; ++i) {
-      const Key key = ranked_[i];
+    uint32_t start = 0;
+    for (uint32_t& c : count_) start += std::exchange(c, start);
+    ranked_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) ranked_[count_[bucket_[i]]++] = static_cast<uint32_t>(i);
+    // count_[b] is now where bucket b ends. Kept: all candidates, or the buckets that hold the k
+    // smallest squares and every square whose distance can tie with the k-th's (within
+    // kSameDistance of the largest square up to the k-th's bucket).
+    std::size_t total = count_[buckets - 1];
+    if (k < total) {
+      const uint32_t end = count_[bucket_[ranked_[k - 1]]];
+      double cut = lo;
+      for (uint32_t i = 0; i < end; ++i) cut = std::max(cut, squared_[ranked_[i]]);
+      total = count_[bucket(std::min(cut * kSameDistance, hi))];
+    }
+    distances_.resize(total);
+    for (std::size_t i = 0; i < total; ++i) distances_[i] = std::sqrt(squared_[ranked_[i]]);
+    for (std::size_t i = 1; i < total; ++i) {
+      const uint32_t index = ranked_[i];
       const double d = distances_[i];
       std::size_t j = i;
-      for (; j > 0 && d < distances_[j - 1]; --j) {
+      for (; j > 0 && (d < distances_[j - 1] || (d == distances_[j - 1] && index < ranked_[j - 1]));
+           --j) {
         ranked_[j] = ranked_[j - 1];
         distances_[j] = distances_[j - 1];
       }
-      ranked_[j] = key;
+      ranked_[j] = index;
       distances_[j] = d;
     }
-    nbh.clear();
-    for (std::size_t i = 0; i < std::min(k, n) && distances_[i] <= radius; ++i) {
-      nbh.push_back(this->data_[index(ranked_[i])]);
-    }
-  }
-
-  // Drops keys of ranked_ (more than k) that cannot be among its k smallest, keeping their order:
-  // RRT*'s k is about a third of a grown tree. A histogram of the squared distances' top 16 bits
-  // (sign, exponent and 4 bits of mantissa: buckets a sixteenth of an octave wide), counted from
-  // the smallest, finds the bucket of the k-th smallest key; keys beyond the next bucket go (the
-  // next stays: a squared distance there may round to the k-th's distance). The last bucket also
-  // holds all that lie farther: when the k-th smallest is near there, every key stays.
-  void keepNearest(std::size_t k) const {
-    const auto bucket_of = [](Key key) { return static_cast<uint32_t>(key >> 48); };
-    uint32_t lowest = std::numeric_limits<uint32_t>::max();
-    for (const Key key : ranked_) lowest = std::min(lowest, bucket_of(key));
-    constexpr uint32_t kBuckets = 1024;
-    std::array<uint32_t, kBuckets> count{};
-    for (const Key key : ranked_) ++count[std::min(bucket_of(key) - lowest, kBuckets - 1)];
-    std::size_t sum = 0;
-    uint32_t last = 0;
-    while ((sum += count[last]) < k) ++last;
-    if (++last >= kBuckets - 1) return;
-    std::size_t kept = 0;
-    for (const Key key : ranked_) {
-      ranked_[kept] = key;
-      kept += bucket_of(key) - lowest <= last;
-    }
-    ranked_.resize(kept);
-  }
-
-  // Sorts ranked_. RRT*'s k grows so fast that a query often ranks the whole tree, and comparison
-  // sorts mispredict about every other comparison: so a stable radix sort on the top 32 bits (the
-  // squared distance's), byte by byte (a byte that every key shares is skipped), which keeps the
-  // indices in order among equal bits: the keys end sorted.
-  void sortRanked() const {
-    const std::size_t n = ranked_.size();
-    if (n < 64) {
-      std::sort(ranked_.begin(), ranked_.end());
-      return;
-    }
-    scratch_.resize(n);
-    std::array<std::array<std::size_t, 256>, 4> start{};
-    for (const Key key : ranked_) {
-      for (int b = 0; b < 4; ++b) ++start[b][static_cast<uint8_t>(key >> (32 + 8 * b))];
-    }
-    for (int b = 0; b < 4; ++b) {
-      const int shift = 32 + 8 * b;
-      if (start[b][static_cast<uint8_t>(ranked_[0] >> shift)] == n) continue;
-      std::size_t sum = 0;
-      for (std::size_t& s : start[b]) sum += std::exchange(s, sum);
-      for (const Key key : ranked_) scratch_[start[b][static_cast<uint8_t>(key >> shift)]++] = key;
-      ranked_.swap(scratch_);
+    for (std::size_t i = 0; i < std::min(k, total) && distances_[i] <= radius; ++i) {
+      nbh.push_back(this->data_[ranked_[i]]);
     }
   }
 
@@ -194,14 +207,20 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
   // relative differences, and doubles round within 1.1e-16 of theirs.
   static constexpr double kSameDistance = 1 + 1e-15;
 
-  using Key = uint64_t;
-  static std::size_t index(Key key) { return static_cast<std::size_t>(key & 0xFFFFFFFFu); }
+  using Doubles2 = double __attribute__((vector_size(16)));
+
+  // rank()'s buckets per element: enough that few share one, so that the insertion sort moves
+  // few.
+  static constexpr std::size_t kBucketsPerElement = 2;
 
   Position position_;
-  std::vector<Eigen::Vector3d> points_;    // position_(data_[i])
-  mutable std::vector<double> squared_;    // measure()
-  mutable std::vector<double> distances_;  // the ranked keys' distances
-  mutable std::vector<Key> ranked_, scratch_;
+  std::array<std::vector<double>, 3> points_;  // per axis, position_(data_[i])
+  mutable std::vector<double> squared_;        // measure()
+  mutable double lowest_ = 0, highest_ = 0;    // measure(): the smallest and largest squares
+  mutable std::vector<uint32_t> bucket_;       // rank(): each element's bucket
+  mutable std::vector<uint32_t> count_;        // rank(): per bucket, its count, then its next slot
+  mutable std::vector<uint32_t> ranked_;       // rank(): the elements' indices, by bucket
+  mutable std::vector<double> distances_;      // rank(): their distances
 };
 
 }  // namespace thicket::explorer::detail

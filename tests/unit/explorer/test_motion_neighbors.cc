@@ -1,6 +1,6 @@
 // RRT*'s nearest neighbours (motion_neighbors.h) against a brute force that measures with OMPL's
 // own RealVectorStateSpace::distance and ranks by (distance, insertion): the same elements in the
-// same order, ties included, on both of the sort's paths (few and many candidates).
+// same order, ties included, however the distances spread over the buckets of its counting sort.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -92,7 +92,7 @@ TEST_F(MotionNeighbors, DistanceHasTheBitsOfOmplsDistance) {
 }
 
 TEST_F(MotionNeighbors, RanksAsTheBruteForceWithTiesInInsertionOrder) {
-  // Sizes below and above the switch to the radix sort (64 candidates), and many more.
+  // From a handful of elements to a grown tree's.
   for (const size_t n : {5, 40, 63, 64, 65, 300, 1500}) {
     fill(n, n);
     Neighbors nn(TablePosition{&points_});
@@ -134,8 +134,8 @@ TEST_F(MotionNeighbors, TiesGoToTheEarlierInsertion) {
 }
 
 TEST_F(MotionNeighbors, OrdersDistancesThatDifferOnlyInTheirLastBits) {
-  // 100 points (the radix sort's path) whose distances share their top 32 bits, inserted
-  // farthest first: the order comes from the last bits alone.
+  // 100 points whose distances differ only in their last bits, inserted farthest first: a few
+  // buckets hold them all, and the insertion sort orders them by those bits alone.
   points_ = {Eigen::Vector3d::Zero()};
   for (int i = 0; i < 100; ++i) points_.emplace_back(1.0 + (99 - i) * 1e-13, 0, 0);
   Neighbors nn(TablePosition{&points_});
@@ -182,9 +182,9 @@ TEST_F(MotionNeighbors, TiesOnDistancesWhoseSquaresDiffer) {
 }
 
 TEST_F(MotionNeighbors, KeepsTheNearestKWhateverTheRangeOfDistances) {
-  // Distances from 2^-60 to 2^60 m (far more than the histogram's 64 octaves), a few of them
-  // repeated, inserted in a shuffled order: every k gives the brute force's k nearest, whether
-  // the k-th lies in one of the histogram's narrow buckets or in the last that holds the rest.
+  // Distances from 2^-60 to 2^60 m, a few of them repeated, inserted in a shuffled order: every k
+  // gives the brute force's k nearest, although the buckets, spread linearly up to the largest
+  // square, put nearly all of them in the first.
   points_ = {Eigen::Vector3d::Zero()};
   for (int e = -60; e <= 60; ++e) {
     for (const double m : {1.0, 1.03, 1.5}) points_.emplace_back(m * std::ldexp(1.0, e), 0, 0);
