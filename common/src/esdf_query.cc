@@ -31,8 +31,16 @@ std::array<const Voxel*, 8> cellVoxels(const Layer<Voxel>& layer, const VoxelInd
   // Per axis, 1 where the cell's upper voxels lie in the next block.
   const VoxelIndex across = blockOfVoxel(base + VoxelIndex::Ones()) - first;
   const int leaves = across.x() | across.y() << 1 | across.z() << 2;
-  std::array<const typename Layer<Voxel>::BlockType*, 8> blocks{};
   std::array<const Voxel*, 8> voxels{};
+  if (leaves == 0) {  // the common case: no axis leaves the block (82 % of cells)
+    const typename Layer<Voxel>::BlockType* block = layer.block(first);
+    if (block == nullptr) return voxels;
+    const Voxel* v = &block->voxels[linearIndexInBlock(base)];
+    constexpr int kY = kVoxelsPerSide;
+    constexpr int kZ = kVoxelsPerSide * kVoxelsPerSide;
+    return {v, v + 1, v + kY, v + kY + 1, v + kZ, v + kZ + 1, v + kZ + kY, v + kZ + kY + 1};
+  }
+  std::array<const typename Layer<Voxel>::BlockType*, 8> blocks{};
   for (int i = 0; i < 8; ++i) {
     const VoxelIndex corner(i & 1, i >> 1 & 1, i >> 2);
     // The corner's block is that of the corner with only the axes that leave: an earlier one, or
