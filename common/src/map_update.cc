@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 #include "thicket/common/compression.h"
@@ -47,13 +49,17 @@ void encodeVoxel(const EsdfVoxel& voxel, uint8_t*& out) {
 
 // Decodes one voxel into `voxel`; what is wrong with it, or nullptr. A block holds 4096 voxels,
 // so this stays free of allocations.
-const char* decodeVoxel(const uint8_t*& in, TsdfVoxel& voxel) {
-  voxel.distance = getFloat(in);
-  voxel.weight = getFloat(in);
+const char* validVoxel(const TsdfVoxel& voxel) {
   if (!std::isfinite(voxel.distance) || !(voxel.weight >= 0) || !std::isfinite(voxel.weight)) {
     return "a TSDF voxel has a non-finite distance or a bad weight";
   }
   return nullptr;
+}
+
+const char* decodeVoxel(const uint8_t*& in, TsdfVoxel& voxel) {
+  voxel.distance = getFloat(in);
+  voxel.weight = getFloat(in);
+  return validVoxel(voxel);
 }
 
 const char* decodeVoxel(const uint8_t*& in, EsdfVoxel& voxel) {
@@ -66,6 +72,13 @@ const char* decodeVoxel(const uint8_t*& in, EsdfVoxel& voxel) {
   return nullptr;
 }
 
+// Whether a voxel in memory is its bytes on the wire (a TSDF voxel: float32 distance, then float32
+// weight, little-endian), so that whole blocks travel as they are.
+template <class Voxel>
+constexpr bool kSameAsWire =
+    std::is_same_v<Voxel, TsdfVoxel> && sizeof(TsdfVoxel) == VoxelWire<TsdfVoxel>::kBytes &&
+    offsetof(TsdfVoxel, distance) == 0 && offsetof(TsdfVoxel, weight) == 4;
+
 // The changes format's set of voxels on the wire: its 256 rows as little-endian uint16.
 constexpr size_t kSetBytes = sizeof(BlockVoxels::rows);
 
@@ -75,14 +88,21 @@ map_block_t encodeBlock(const Block<Voxel>& block, const BlockVoxels* voxels, bo
   const size_t bytes = voxels != nullptr ? kSetBytes + static_cast<size_t>(voxels->count()) *
                                                            VoxelWire<Voxel>::kBytes
                                          : kVoxelsPerBlock * VoxelWire<Voxel>::kBytes;
-  std::vector<uint8_t> raw(bytes);
-  uint8_t* out = raw.data();
-  if (voxels != nullptr) {
-    std::memcpy(out, voxels->rows.data(), kSetBytes);
-    out += kSetBytes;
-    voxels->forEach([&](int lin) { encodeVoxel(block.voxels[lin], out); });
+  std::vector<uint8_t> raw;
+  if (voxels == nullptr && kSameAsWire<Voxel>) {
+    // A TSDF block is its payload: one copy, with no zeroing of the buffer first.
+    const auto* first = reinterpret_cast<const uint8_t*>(block.voxels.data());
+    raw.assign(first, first + bytes);
   } else {
-    for (const Voxel& voxel : block.voxels) encodeVoxel(voxel, out);
+    raw.resize(bytes);
+    uint8_t* out = raw.data();
+    if (voxels != nullptr) {
+      std::memcpy(out, voxels->rows.data(), kSetBytes);
+      out += kSetBytes;
+      voxels->forEach([&](int lin) { encodeVoxel(block.voxels[lin], out); });
+    } else {
+      for (const Voxel& voxel : block.voxels) encodeVoxel(voxel, out);
+    }
   }
   map_block_t msg;
   for (int i = 0; i < 3; ++i) msg.index[i] = block.index[i];
@@ -150,8 +170,15 @@ Expected<std::unique_ptr<Block<Voxel>>> decodeBlock(
   } else {
     block = std::make_unique<Block<Voxel>>(index);
   }
-  for (Voxel& voxel : block->voxels) {
-    if (const char* error = decodeVoxel(in, voxel)) return unexpected(blockName(msg) + error);
+  if constexpr (kSameAsWire<Voxel>) {
+    std::memcpy(block->voxels.data(), in, raw_size);
+    for (const Voxel& voxel : block->voxels) {
+      if (const char* error = validVoxel(voxel)) return unexpected(blockName(msg) + error);
+    }
+  } else {
+    for (Voxel& voxel : block->voxels) {
+      if (const char* error = decodeVoxel(in, voxel)) return unexpected(blockName(msg) + error);
+    }
   }
   return block;
 }

@@ -745,21 +745,30 @@ class EsdfIntegrator::Impl {
       const float magnitude = std::abs(d);
       float site = magnitude <= band_ ? magnitude : kNoSite;
       if (options_.crossing_sites && magnitude > 0) {
-        // Off the block's faces the neighbours are in the same block.
-        const bool inner = interior(lin);
-        for (int face = 0; face < 6; ++face) {
-          const int step = face % 2 ? 1 : -1;
-          const TsdfVoxel* n =
-              inner ? t + step * kStride[face / 2]
-                    : star.voxel(x + (face / 2 == 0 ? step : 0), y + (face / 2 == 1 ? step : 0),
-                                 z + (face / 2 == 2 ? step : 0));
-          if (!observed(n) || !(d > 0 ? n->distance <= 0 : n->distance >= 0)) continue;
+        const auto crossing = [&](const TsdfVoxel* n) __attribute__((always_inline)) {
+          // The sign first: most neighbours are on the same side (a NaN fails either test).
+          if (n == nullptr || !(d > 0 ? n->distance <= 0 : n->distance >= 0) || !observed(n)) {
+            return;
+          }
           // A signed distance changes by at most the voxel size between neighbours: a larger
           // sum means one side is stretched (a slant) or truncated, and which is unknown, so the
           // crossing is taken midway rather than interpolated toward the smaller value.
           const float sum = magnitude + std::abs(n->distance);
           site = std::min(
               site, sum > voxel_size_f_ ? 0.5f * voxel_size_f_ : voxel_size_f_ * magnitude / sum);
+        };
+        // Faces -x, +x, -y, +y, -z, +z; off the block's faces the neighbours are in the block.
+        if (interior(lin)) {
+          for (const int stride : kStride) {
+            crossing(t - stride);
+            crossing(t + stride);
+          }
+        } else {
+          for (int face = 0; face < 6; ++face) {
+            const int step = face % 2 ? 1 : -1;
+            crossing(star.voxel(x + (face / 2 == 0 ? step : 0), y + (face / 2 == 1 ? step : 0),
+                                z + (face / 2 == 2 ? step : 0)));
+          }
         }
       }
       if (site != kNoSite) return {kSurface, std::copysign(std::min(site, max_), d)};
