@@ -76,8 +76,9 @@ const char* decodeVoxel(const uint8_t*& in, EsdfVoxel& voxel) {
 // weight, little-endian), so that whole blocks travel as they are.
 template <class Voxel>
 constexpr bool kSameAsWire =
-    std::is_same_v<Voxel, TsdfVoxel> && sizeof(TsdfVoxel) == VoxelWire<TsdfVoxel>::kBytes &&
-    offsetof(TsdfVoxel, distance) == 0 && offsetof(TsdfVoxel, weight) == 4;
+    std::is_same_v<Voxel, TsdfVoxel> &&
+    sizeof(TsdfVoxel) == VoxelWire<TsdfVoxel>::kBytes&& offsetof(TsdfVoxel, distance) == 0 &&
+    offsetof(TsdfVoxel, weight) == 4;
 
 // The changes format's set of voxels on the wire: its 256 rows as little-endian uint16.
 constexpr size_t kSetBytes = sizeof(BlockVoxels::rows);

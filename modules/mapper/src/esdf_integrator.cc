@@ -757,7 +757,7 @@ class EsdfIntegrator::Impl {
           site = std::min(
               site, sum > voxel_size_f_ ? 0.5f * voxel_size_f_ : voxel_size_f_ * magnitude / sum);
         };
-        // Faces -x, +x, -y, +y, -z, +z; off the block's faces the neighbours are in the block.
+        // Faces -x, +x, -y, +y, -z, +z: at constant strides for a voxel off its block's faces.
         if (interior(lin)) {
           for (const int stride : kStride) {
             crossing(t - stride);
