@@ -72,13 +72,13 @@ const char* decodeVoxel(const uint8_t*& in, EsdfVoxel& voxel) {
   return nullptr;
 }
 
-// Whether a voxel in memory is its bytes on the wire (a TSDF voxel: float32 distance, then float32
-// weight, little-endian), so that whole blocks travel as they are.
+// A TSDF voxel in memory is its bytes on the wire (float32 distance, then float32 weight,
+// little-endian), so that whole blocks travel as they are.
+static_assert(sizeof(TsdfVoxel) == VoxelWire<TsdfVoxel>::kBytes &&
+                  offsetof(TsdfVoxel, distance) == 0 && offsetof(TsdfVoxel, weight) == 4,
+              "TsdfVoxel's layout is the wire's");
 template <class Voxel>
-constexpr bool kSameAsWire =
-    std::is_same_v<Voxel, TsdfVoxel> &&
-    sizeof(TsdfVoxel) == VoxelWire<TsdfVoxel>::kBytes&& offsetof(TsdfVoxel, distance) == 0 &&
-    offsetof(TsdfVoxel, weight) == 4;
+constexpr bool kSameAsWire = std::is_same_v<Voxel, TsdfVoxel>;
 
 // The changes format's set of voxels on the wire: its 256 rows as little-endian uint16.
 constexpr size_t kSetBytes = sizeof(BlockVoxels::rows);
