@@ -241,25 +241,43 @@ TEST(MapUpdate, EsdfVoxelsKeepTheirFlags) {
   }
 }
 
+// The reason a mirror gives for refusing layer's snapshot (one uncompressed message) with one byte
+// of its first block's payload set to value; the mirror must keep no part of it.
+template <class Voxel>
+std::string refusalWithByte(const Layer<Voxel>& layer, size_t byte, uint8_t value) {
+  map_update_t msg = encodeMapUpdate(layer, {1, 1, 0, true}, {}, {}, 1 << 20, false)[0];
+  msg.blocks[0].data[byte] = value;
+  MapMirror<Voxel> mirror;
+  const auto result = mirror.apply(msg);
+  EXPECT_EQ(result.outcome, MapMirror<Voxel>::Outcome::kRefused);
+  EXPECT_EQ(mirror.layer(), nullptr);
+  return result.reason;
+}
+
 // A bad voxel anywhere in a block refuses the message, naming what is wrong with it, and the
 // mirror keeps no part of it.
 TEST(MapUpdate, ABadVoxelInsideABlockIsRefusedWithItsReason) {
   EsdfLayer layer(0.2);
   layer.allocateBlock({0, 0, 0}).voxels.fill({1.0f, true, false});
-  const map_update_t good = encodeMapUpdate(layer, {1, 1, 0, true}, {}, {}, 1 << 20, false)[0];
-  const auto reason = [&](size_t byte, uint8_t value) {
-    map_update_t msg = good;
-    msg.blocks[0].data[byte] = value;
-    MapMirror<EsdfVoxel> mirror;
-    const auto result = mirror.apply(msg);
-    EXPECT_EQ(result.outcome, MapMirror<EsdfVoxel>::Outcome::kRefused);
-    EXPECT_EQ(mirror.layer(), nullptr);
-    return result.reason;
-  };
   constexpr size_t kVoxel = 2345 * 5;  // five bytes a voxel: float distance, flags
-  EXPECT_NE(reason(kVoxel + 4, 0x04).find("unknown flag bits"), std::string::npos);
+  EXPECT_NE(refusalWithByte(layer, kVoxel + 4, 0x04).find("unknown flag bits"), std::string::npos);
   // 1.0f is 0x3f800000; with its top byte 0x7f, +infinity.
-  EXPECT_NE(reason(kVoxel + 3, 0x7f).find("non-finite distance"), std::string::npos);
+  EXPECT_NE(refusalWithByte(layer, kVoxel + 3, 0x7f).find("non-finite distance"),
+            std::string::npos);
+}
+
+// The same for a TSDF block, whose payload is its voxels' bytes, checked after one copy.
+TEST(MapUpdate, ABadTsdfVoxelInsideABlockIsRefusedWithItsReason) {
+  TsdfLayer layer(0.2);
+  layer.allocateBlock({0, 0, 0}).voxels.fill({1.0f, 1.0f});
+  constexpr size_t kVoxel = 2345 * 8;  // eight bytes a voxel: float distance, float weight
+  // 1.0f is 0x3f800000: with its top byte 0x7f, +infinity; with 0xbf, -1.
+  EXPECT_NE(refusalWithByte(layer, kVoxel + 3, 0x7f).find("non-finite distance"),
+            std::string::npos);
+  EXPECT_NE(refusalWithByte(layer, kVoxel + 7, 0x7f).find("bad weight"), std::string::npos);
+  EXPECT_NE(refusalWithByte(layer, kVoxel + 7, 0xbf).find("bad weight"), std::string::npos);
+  // The last voxel of the block too.
+  EXPECT_NE(refusalWithByte(layer, 4095 * 8 + 7, 0xbf).find("bad weight"), std::string::npos);
 }
 
 // Layers compare by value: the padding bytes of an ESDF voxel (a float and two bools) hold
