@@ -18,6 +18,18 @@
 
 namespace thicket::explorer::detail {
 
+/// RealVectorStateSpace::distance's arithmetic in 3-D: the squared differences summed in axis
+/// order, then the square root; the same bits.
+inline double squaredSpaceDistance(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const double dx = a.x() - b.x();
+  const double dy = a.y() - b.y();
+  const double dz = a.z() - b.z();
+  return dx * dx + dy * dy + dz * dz;
+}
+inline double spaceDistance(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::sqrt(squaredSpaceDistance(a, b));
+}
+
 /// Exact nearest neighbours by a linear scan, for elements that are points of a 3-D
 /// RealVectorStateSpace (position(element) gives the point). The distance is that space's: the
 /// same operations in the same order, so the same bits as its distance(), but computed inline from
@@ -82,21 +94,8 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
     rank(data, nbh, radius, std::numeric_limits<std::size_t>::max());
   }
 
-  /// RealVectorStateSpace::distance's arithmetic: the squared differences summed in axis order,
-  /// then the square root.
-  static double distance(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-    return std::sqrt(squaredDistance(a, b));
-  }
-
  private:
-  static double squaredDistance(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-    const double dx = a.x() - b.x();
-    const double dy = a.y() - b.y();
-    const double dz = a.z() - b.z();
-    return dx * dx + dy * dy + dz * dz;
-  }
-
-  // Every element's squared distance to data, in insertion order: distance() before its square
+  // Every element's squared distance to data, in insertion order: spaceDistance() before its square
   // root, which only the elements ranked need (it rounds, so ties are settled on distances); and
   // the smallest and the largest of them (NaNs left out).
   void measure(const T& data) const {
@@ -107,7 +106,7 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
     const double* y = points_[1].data();
     const double* z = points_[2].data();
     double* out = squared_.data();
-    // squaredDistance(point, q), two elements at a time: the same operations lane by lane.
+    // squaredSpaceDistance(point, q), two elements at a time: the same operations lane by lane.
     std::size_t i = 0;
     const Doubles2 qx = {q.x(), q.x()}, qy = {q.y(), q.y()}, qz = {q.z(), q.z()};
     constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -126,7 +125,7 @@ class PointNearestNeighbors final : public ompl::NearestNeighborsLinear<T> {
     lowest_ = std::min(lowest[0], lowest[1]);
     highest_ = std::max(highest[0], highest[1]);
     for (; i < n; ++i) {
-      out[i] = squaredDistance({x[i], y[i], z[i]}, q);
+      out[i] = squaredSpaceDistance({x[i], y[i], z[i]}, q);
       lowest_ = std::min(lowest_, out[i]);
       highest_ = std::max(highest_, out[i]);
     }

@@ -5,12 +5,15 @@
 // Validity. optimistic reads the TSDF: a point is free when the voxel holding it is unknown
 // (unallocated, or weight below gain.min_weight) or its distance is at least the clearance; unknown
 // space is free. conservative reads the ESDF through esdfFree: unknown space is occupied. Edges are
-// checked every rrt_star.check_step (OMPL's discrete motion validator, the resolution given as a
-// fraction of the space's extent). A new node connects to its cheapest neighbour with a free edge;
-// OMPL's default sorts the neighbourhood (hundreds of nodes, k-nearest RRT*) by cost to find it,
-// which took most of a request's time, so each neighbour cheaper than the best so far is checked
-// in neighbour order instead (rrt_star.delay_collision_checks: false). Both pick the cheapest
-// neighbour with a free edge, so the trees agree (the tests and the benchmark find them identical).
+// checked every rrt_star.check_step (the states OMPL's discrete motion validator checks, the
+// resolution given as a fraction of the space's extent; EdgeValidator checks them in order along
+// the edge, without OMPL's per-edge queue and std::function, rrt_edges.h), and priced by their
+// length (EdgeLengthObjective, the same bits as OMPL's path length). A new node connects to its
+// cheapest neighbour with a free edge; OMPL's default sorts the neighbourhood (hundreds of nodes,
+// k-nearest RRT*) by cost to find it, which took most of a request's time, so each neighbour
+// cheaper than the best so far is checked in neighbour order instead
+// (rrt_star.delay_collision_checks: false). Both pick the cheapest neighbour with a free edge, so
+// the trees agree (the tests and the benchmark find them identical).
 //
 // Clearance. Both use treeClearance's policy: min_clearance, relaxed to the start's own clearance
 // down to half of it, so a vehicle stuck near an obstacle can still leave; OMPL assumes the start
@@ -50,7 +53,6 @@
 #include <ompl/base/ScopedState.h>
 #include <ompl/base/SpaceInformation.h>
 #include <ompl/base/StateSampler.h>
-#include <ompl/base/objectives/PathLengthOptimizationObjective.h>
 #include <ompl/base/spaces/RealVectorStateSpace.h>
 #include <ompl/base/terminationconditions/IterationTerminationCondition.h>
 #include <ompl/geometric/PathGeometric.h>
@@ -58,6 +60,7 @@
 #include <ompl/util/Console.h>
 
 #include "motion_neighbors.h"
+#include "rrt_edges.h"
 #include "strategies.h"
 #include "thicket/common/esdf_query.h"
 #include "thicket/common/random.h"
@@ -73,11 +76,6 @@ constexpr int64_t kSamplerSalt = 1;
 constexpr int64_t kGoalBiasSalt = 2;
 
 using RealState = ob::RealVectorStateSpace::StateType;
-
-Eigen::Vector3d toVector(const ob::State* state) {
-  const auto* s = state->as<RealState>();
-  return {s->values[0], s->values[1], s->values[2]};
-}
 
 void fromVector(const Eigen::Vector3d& p, ob::State* state) {
   auto* s = state->as<RealState>();
@@ -100,13 +98,13 @@ class SeededBoxSampler final : public ob::StateSampler {
 
   // RRT* does not use these; they draw from the same generator all the same.
   void sampleUniformNear(ob::State* state, const ob::State* near, double distance) override {
-    const Eigen::Vector3d c = toVector(near);
+    const Eigen::Vector3d c = statePosition(near);
     Eigen::Vector3d p;
     for (int i = 0; i < 3; ++i) p[i] = c[i] + distance * (2 * unit() - 1);
     fromVector(p.cwiseMax(lo_).cwiseMin(hi_), state);
   }
   void sampleGaussian(ob::State* state, const ob::State* mean, double std_dev) override {
-    const Eigen::Vector3d c = toVector(mean);
+    const Eigen::Vector3d c = statePosition(mean);
     Eigen::Vector3d p;
     for (int i = 0; i < 3; ++i) {
       // Box-Muller; 1 - unit() is in (0, 1].
@@ -129,7 +127,7 @@ class SeededBoxSampler final : public ob::StateSampler {
 struct MotionPosition {
   template <typename Motion>
   Eigen::Vector3d operator()(const Motion* motion) const {
-    return toVector(motion->state);
+    return statePosition(motion->state);
   }
 };
 template <typename T>
@@ -232,7 +230,8 @@ class RrtStarSelector final : public GoalSelector {
     });
 
     auto si = std::make_shared<ob::SpaceInformation>(space);
-    si->setStateValidityChecker([&](const ob::State* s) { return free(toVector(s)); });
+    si->setStateValidityChecker([&](const ob::State* s) { return free(statePosition(s)); });
+    si->setMotionValidator(std::make_shared<EdgeValidator<decltype(free)>>(si, free));
     // OMPL wants a fraction in (0, 1); a finer step than asked is only safer.
     si->setStateValidityCheckingResolution(std::clamp(o.check_step / extent, 1e-12, 0.5));
     si->setup();
@@ -243,7 +242,7 @@ class RrtStarSelector final : public GoalSelector {
     fromVector(goal, goal_state.get());
     pdef->addStartState(start_state);
     pdef->setGoalState(goal_state, o.goal_tolerance);
-    pdef->setOptimizationObjective(std::make_shared<ob::PathLengthOptimizationObjective>(si));
+    pdef->setOptimizationObjective(std::make_shared<EdgeLengthObjective>(si));
 
     auto planner =
         std::make_shared<SeededRrtStar>(si, mixSeed(static_cast<int64_t>(seed), kGoalBiasSalt));
@@ -269,13 +268,14 @@ class RrtStarSelector final : public GoalSelector {
     }
     const auto& states = path->as<og::PathGeometric>()->getStates();
     const bool exact = pdef->hasExactSolution();
-    const Eigen::Vector3d end = toVector(states.back());
+    const Eigen::Vector3d end = statePosition(states.back());
     if (states.size() < 2 || (!exact && !((end - goal).norm() < (start - goal).norm()))) {
       proposal.reason =
           clamped + "no tree node is closer to the goal than the start (" + budget + ")";
       return proposal;
     }
-    for (size_t i = 1; i < states.size(); ++i) proposal.waypoints.push_back(toVector(states[i]));
+    for (size_t i = 1; i < states.size(); ++i)
+      proposal.waypoints.push_back(statePosition(states[i]));
     proposal.found = true;
     proposal.score = path->as<og::PathGeometric>()->length();
     const int n = static_cast<int>(proposal.waypoints.size());

@@ -85,7 +85,7 @@ TEST_F(MotionNeighbors, DistanceHasTheBitsOfOmplsDistance) {
   fill(200, 1);
   for (int a = 0; a < 200; ++a) {
     const int b = (a * 37 + 11) % 200;
-    EXPECT_EQ(std::bit_cast<uint64_t>(Neighbors::distance(points_[a], points_[b])),
+    EXPECT_EQ(std::bit_cast<uint64_t>(spaceDistance(points_[a], points_[b])),
               std::bit_cast<uint64_t>(omplDistance(a, b)))
         << a << " " << b;
   }
@@ -152,7 +152,7 @@ TEST_F(MotionNeighbors, TiesOnDistancesWhoseSquaresDiffer) {
   // distance 1 exactly. Alternated, the first of each pair inserted first, with 98 points at
   // other distances: ties go by insertion whatever the squares say, in nearest() too.
   points_ = {Eigen::Vector3d::Zero()};
-  ASSERT_EQ(Neighbors::distance(points_[0], {1, 1.5e-8, 0}), 1.0);
+  ASSERT_EQ(spaceDistance(points_[0], {1, 1.5e-8, 0}), 1.0);
   ASSERT_NE(Eigen::Vector3d(1, 1.5e-8, 0).squaredNorm(), 1.0);
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> coordinate(-2.0, 2.0);
