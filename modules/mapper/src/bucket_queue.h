@@ -61,6 +61,9 @@ class BucketQueue {
     peak_ = std::max(peak_, ++size_);
   }
 
+  // The bucket of a key in [0, max_key]: keys in one bucket are popped in no particular order.
+  size_t bucketOf(float key) const { return index(key); }
+
   // The payload of an entry of the lowest non-empty bucket, and its key. Not on an empty queue.
   uint32_t pop(float& key) {
     while (buckets_[cursor_].empty()) ++cursor_;

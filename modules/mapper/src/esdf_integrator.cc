@@ -20,6 +20,8 @@ enum : uint8_t { kUnknown = 0, kFree = 1, kInside = 2, kSurface = 3, kOccupied =
 constexpr uint8_t kClassMask = 7;
 // Set while the voxel is in the running call's touched list.
 constexpr uint8_t kTouched = 8;
+// Set while the queue holds the voxel in the bucket of its value, not yet passed on.
+constexpr uint8_t kQueued = 16;
 constexpr uint8_t kNoParent = 26;
 
 // Which children a raise reaches: those on the free side, those on the inside side; and whether
@@ -200,7 +202,7 @@ struct BlockNode {
   // fourth up to one past the last voxel (kRows).
   // Sites: their distance; free and inside voxels: the magnitude; unknown: 0.
   std::array<float, kVoxelsPerBlock + 1> value{};
-  std::array<uint8_t, kVoxelsPerBlock + 1> state{};  // class | kTouched
+  std::array<uint8_t, kVoxelsPerBlock + 1> state{};  // class | kTouched | kQueued
   std::array<uint8_t, kVoxelsPerBlock + 1> parent;   // direction to the parent, or kNoParent
 };
 
@@ -977,8 +979,13 @@ class EsdfIntegrator::Impl {
     }
   }
 
-  // Queues a free or inside voxel with its value (in [0, max_distance]).
-  void push(float value, BlockNode* node, int lin) {
+  // Queues a free or inside voxel with its new value (in [0, max_distance]), lowered from `old`:
+  // unless the queue holds it in that value's bucket already, where the entry stands for the
+  // lower value too (in a T1 flight a seventh of the lowerings, half the entries that went stale).
+  void push(float value, float old, BlockNode* node, int lin) {
+    uint8_t& state = node->state[lin];
+    if ((state & kQueued) && queue_.bucketOf(value) == queue_.bucketOf(old)) return;
+    state |= kQueued;
     queue_.push(value, node->id << 12 | static_cast<uint32_t>(lin));
   }
 
@@ -990,9 +997,10 @@ class EsdfIntegrator::Impl {
   }
   void lower(BlockNode* node, int lin, float candidate, int dir) {
     touch(node, lin);
+    const float old = node->value[lin];
     node->value[lin] = candidate;
     node->parent[lin] = static_cast<uint8_t>(dir);
-    push(candidate, node, lin);
+    push(candidate, old, node, lin);
   }
 
   // Dijkstra's offers from voxel lin, whose rows of neighbours lie each in one block, to those of
@@ -1047,6 +1055,8 @@ class EsdfIntegrator::Impl {
     }
     touch(n, l);
     n->value[l] = value;
+    // kQueued promises an entry in the bucket of the value: any entry n has lies below it now.
+    n->state[l] &= ~kQueued;
     if (value == max_) n->parent[l] = kNoParent;
     raise_.push_back(
         {n, l, static_cast<uint8_t>(sideOf(n->state[l] & kClassMask) | (r.raise & kReevaluate))});
@@ -1116,20 +1126,25 @@ class EsdfIntegrator::Impl {
           }
         });
         if (best_dir >= 0) {
+          const float old = t.node->value[t.lin];
           t.node->value[t.lin] = best;
           t.node->parent[t.lin] = static_cast<uint8_t>(best_dir);
-          push(best, t.node, t.lin);
+          push(best, old, t.node, t.lin);
         }
       }
     }
-    // Dijkstra: a voxel leaves the queue with its final value and passes it on.
+    // Dijkstra: a voxel leaves the queue with its final value and passes it on; its entries in
+    // higher buckets, left from before it was lowered, are dropped.
     while (!queue_.empty()) {
-      float value;
-      const uint32_t voxel = queue_.pop(value);
+      float key;
+      const uint32_t voxel = queue_.pop(key);
       BlockNode* node = by_id_[voxel >> 12];
       const int lin = static_cast<int>(voxel & 4095);
-      if (node->value[lin] != value) continue;  // lowered again since
-      const uint8_t cls = node->state[lin] & kClassMask;
+      uint8_t& state = node->state[lin];
+      const float value = node->value[lin];
+      if (!(state & kQueued) || queue_.bucketOf(value) != queue_.bucketOf(key)) continue;
+      state &= ~kQueued;
+      const uint8_t cls = state & kClassMask;
       if (rowsInBlocks(lin)) {
         offerToRowNeighbours(node, lin, value, cls);
         continue;

@@ -1,6 +1,6 @@
-// The ESDF's bucket queue: pops come from the lowest non-empty bucket, last in first out within
-// it, and Dijkstra's algorithm on it gives the distances a binary heap gives when every edge is
-// longer than the bucket width.
+// The ESDF's bucket queue: pops come from the lowest non-empty bucket (bucketOf's), last in first
+// out within it, and Dijkstra's algorithm on it gives the distances a binary heap gives when every
+// edge is longer than the bucket width.
 #include "bucket_queue.h"
 
 #include <cmath>
@@ -37,6 +37,8 @@ TEST(BucketQueue, PopsFromTheLowestBucketUnderTheMonotoneRule) {
       const float key = last + (random() % 2 ? std::min(room, 0.1f) : room) * uniform(random);
       queue.push(key, payload);
       reference.emplace(key, payload++);
+      // bucketOf, which the ESDF compares keys with, names the bucket pops go by.
+      ASSERT_EQ(queue.bucketOf(key), static_cast<size_t>(bucket(key)));
     } else {
       float key = -1;
       const uint32_t got = queue.pop(key);
