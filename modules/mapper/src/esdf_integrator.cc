@@ -979,12 +979,18 @@ class EsdfIntegrator::Impl {
     }
   }
 
-  // Queues a free or inside voxel with its new value (in [0, max_distance]), lowered from `old`:
-  // unless the queue holds it in that value's bucket already, where the entry stands for the
-  // lower value too (in a T1 flight a seventh of the lowerings, half the entries that went stale).
-  void push(float value, float old, BlockNode* node, int lin) {
+  // Gives a free or inside voxel a shorter value (in [0, max_distance]) through the neighbour in
+  // direction `dir` and queues it: unless the queue holds it in that value's bucket already, where
+  // the entry stands for the lower value too (in a T1 flight a seventh of the lowerings, half the
+  // entries that went stale). Inlined, as the queue's push, into both callers: out of line they
+  // ran 1-3 % more instructions (BM_EsdfUpdateFaster/200/4).
+  [[gnu::always_inline]] void shorten(BlockNode* node, int lin, float value, int dir) {
     uint8_t& state = node->state[lin];
-    if ((state & kQueued) && queue_.bucketOf(value) == queue_.bucketOf(old)) return;
+    const bool queued =
+        (state & kQueued) && queue_.bucketOf(value) == queue_.bucketOf(node->value[lin]);
+    node->value[lin] = value;
+    node->parent[lin] = static_cast<uint8_t>(dir);
+    if (queued) return;
     state |= kQueued;
     queue_.push(value, node->id << 12 | static_cast<uint32_t>(lin));
   }
@@ -997,10 +1003,7 @@ class EsdfIntegrator::Impl {
   }
   void lower(BlockNode* node, int lin, float candidate, int dir) {
     touch(node, lin);
-    const float old = node->value[lin];
-    node->value[lin] = candidate;
-    node->parent[lin] = static_cast<uint8_t>(dir);
-    push(candidate, old, node, lin);
+    shorten(node, lin, candidate, dir);
   }
 
   // Dijkstra's offers from voxel lin, whose rows of neighbours lie each in one block, to those of
@@ -1125,12 +1128,8 @@ class EsdfIntegrator::Impl {
             best_dir = d;
           }
         });
-        if (best_dir >= 0) {
-          const float old = t.node->value[t.lin];
-          t.node->value[t.lin] = best;
-          t.node->parent[t.lin] = static_cast<uint8_t>(best_dir);
-          push(best, old, t.node, t.lin);
-        }
+        // Touched already: reclassified or raised.
+        if (best_dir >= 0) shorten(t.node, t.lin, best, best_dir);
       }
     }
     // Dijkstra: a voxel leaves the queue with its final value and passes it on; its entries in

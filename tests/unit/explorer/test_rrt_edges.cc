@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cmath>
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <random>
 #include <utility>
