@@ -137,14 +137,9 @@ namespace {
 // benchmark trial).
 void addOuter(Derivatives& gradient, double scale, const Eigen::Ref<const Eigen::RowVectorXd>& row,
               const Eigen::RowVector3d& along) {
-  const Eigen::Index n = row.size();
-  double* out = gradient.data();
-  const Eigen::Index stride = gradient.rows();
-  for (Eigen::Index i = 0; i < n; ++i) {
+  for (Eigen::Index i = 0; i < gradient.rows(); ++i) {
     const double scaled = scale * row[i];
-    out[i] += scaled * along[0];
-    out[i + stride] += scaled * along[1];
-    out[i + 2 * stride] += scaled * along[2];
+    for (int j = 0; j < 3; ++j) gradient(i, j) += scaled * along[j];
   }
 }
 
