@@ -339,6 +339,53 @@ inline bool hasPropagatingNeighbour(BlockNode* node, int lin) {
   return found;
 }
 
+// Sixteen bytes, compared byte by byte (GCC vector extensions).
+using Bytes16 = uint8_t __attribute__((vector_size(16)));
+
+// The bytes' bit 0 as bits 0-15: each half's bits gathered by a product whose partial products
+// do not overlap, so nothing carries.
+inline uint32_t packBytes(Bytes16 bytes) {
+  uint64_t half[2];
+  std::memcpy(half, &bytes, sizeof(half));
+  const auto pack = [](uint64_t b) {
+    return static_cast<uint32_t>(((b & 0x0101010101010101u) * 0x0102040810204080u) >> 56);
+  };
+  return pack(half[0]) | pack(half[1]) << 8;
+}
+
+// For the voxels of the row through voxel `first` (x = 0) of node: bit x + 1 set where the column
+// at x (in -1 .. 16: the neighbouring blocks' edge voxels included) holds a free or inside voxel
+// among the rows y - 1 .. y + 1, z - 1 .. z + 1. Voxel x has a free or inside neighbour exactly
+// when bits x .. x + 2 hold one, its own class not counting: hasPropagatingNeighbour for a run of
+// the row at once, the nine rows read once for all its voxels rather than for each. Where the
+// voxels are themselves neither free nor inside (the occupied sphere's edge), their own bits are
+// clear. Without with_edges, bits 0 and 17 (the neighbouring blocks') stay clear.
+inline uint32_t rowPropagatingColumns(BlockNode* node, int first, bool with_edges) {
+  // The rows of neighbours of the row's voxel x = 1, which lie each in one block, from x = 0.
+  const int one = first + 1;
+  const int c = positionClass(one);
+  Bytes16 any{};
+  uint32_t edges = 0;
+#pragma GCC unroll 9
+  for (int row = 0; row < 9; ++row) {
+    const int slot = kRows.slot[c][row];
+    const int start = one + kRows.offset[c][row];
+    Bytes16 states;
+    std::memcpy(&states, node->neighbours[slot]->state.data() + start, sizeof(states));
+    const Bytes16 cls = states & kClassMask;
+    any |= reinterpret_cast<Bytes16>((cls == uint8_t{kFree}) | (cls == uint8_t{kInside}));
+    if (with_edges) {
+      // The blocks before and after along x (their slots are next to it): their voxels 15 and 0.
+      edges |=
+          propagates(node->neighbours[slot - 1]->state[start + kVoxelsPerSide - 1] & kClassMask);
+      edges |=
+          static_cast<uint32_t>(propagates(node->neighbours[slot + 1]->state[start] & kClassMask))
+          << 17;
+    }
+  }
+  return packBytes(any) << 1 | edges;
+}
+
 // A list of the wavefront's work, appended to with the common case (room left) inlined: the
 // callers in propagate() are large enough that GCC left std::vector::push_back out of line there,
 // and the element, passed through memory, stalled on reloading what narrower stores had just
@@ -983,28 +1030,55 @@ class EsdfIntegrator::Impl {
               looked_up = true;
             }
             const int row = kVoxelsPerSide * ((y & 15) + kVoxelsPerSide * (z & 15));
+            // A run of the row, block by block.
             const auto reclassifyRange = [&](int x0, int x1) {
-              for (int x = x0; x <= x1; ++x) {
-                const int i = (x >> 4) - lo.x();
-                const int lin = (x & 15) + row;
+              for (int s0 = x0, s1; s0 <= x1; s0 = s1 + 1) {
+                s1 = std::min(x1, s0 | kLast);
+                const int i = (s0 >> 4) - lo.x();
                 BlockNode*& node = row_nodes_[i];
-                const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
-                // A published class is that of an observed voxel, which the spheres do not
-                // change (and which was classified with its block if its TSDF changed), or of an
-                // unobserved one in the clear sphere, which does not move: free, as it stays.
-                // Either way nothing changes, and the TSDF need not tell which.
-                if (published(old)) continue;
-                const Classified c = unobservedClass(x, clear, now);
-                if (unchanged(node, lin, c)) continue;
-                const BlockIndex b(lo.x() + i, by, bz);
-                if (node == nullptr) node = allocate(b);
-                // Between unknown and occupied with no free or inside neighbour (most of the
-                // sphere's edge), in place. Only here: the classification is done, so the
-                // neighbours' classes are final (this pass changes only unknown and occupied ones).
-                if (!published(c.cls) && !hasPropagatingNeighbour(node, lin)) {
-                  flipUnpublished(node, lin, c.cls);
-                } else {
+                // The neighbour test of a run of three or more reads the nine rows once, when the
+                // first voxel needs it (rowPropagatingColumns).
+                const bool by_columns = s1 - s0 >= 2;
+                uint32_t columns = 0;
+                bool have_columns = false;
+                for (int x = s0; x <= s1; ++x) {
+                  const int lin = (x & 15) + row;
+                  const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
+                  // A published class is that of an observed voxel, which the spheres do not
+                  // change (and which was classified with its block if its TSDF changed), or of
+                  // an unobserved one in the clear sphere, which does not move: free, as it stays.
+                  // Either way nothing changes, and the TSDF need not tell which.
+                  if (published(old)) continue;
+                  const Classified c = unobservedClass(x, clear, now);
+                  if (unchanged(node, lin, c)) continue;
+                  const BlockIndex b(lo.x() + i, by, bz);
+                  if (node == nullptr) node = allocate(b);
+                  // Between unknown and occupied with no free or inside neighbour (most of the
+                  // sphere's edge), in place. Only here: the classification is done, so the
+                  // neighbours' classes are final (this pass changes only unknown and occupied
+                  // ones).
+                  if (!published(c.cls)) {
+                    bool near;
+                    if (by_columns) {
+                      if (!have_columns) {
+                        columns = node->propagating > 0 || blockNearPropagating(node)
+                                      ? rowPropagatingColumns(node, row,
+                                                              (s0 & 15) == 0 || (s1 & 15) == kLast)
+                                      : 0;
+                        have_columns = true;
+                      }
+                      near = (columns >> (x & 15) & 7) != 0;
+                    } else {
+                      near = hasPropagatingNeighbour(node, lin);
+                    }
+                    if (!near) {
+                      flipUnpublished(node, lin, c.cls);
+                      continue;
+                    }
+                  }
                   reclassify(node, b, lin, c);
+                  // Should the voxel now propagate, its neighbours' columns changed.
+                  have_columns = have_columns && !propagates(c.cls);
                 }
               }
             };
