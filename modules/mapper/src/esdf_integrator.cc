@@ -10,6 +10,8 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
+#include <vector>
 
 #include "bucket_queue.h"
 
@@ -167,6 +169,38 @@ struct Span {
   return {static_cast<int>(std::ceil((p.x() - h) / vs - 0.5)),
           static_cast<int>(std::floor((p.x() + h) / vs - 0.5))};
 }
+
+// rowSpan of every row through one sphere, computed once per sphere: the occupied sphere's rows
+// are asked by the classification and twice by the sphere's pass (as the current sphere, then the
+// previous one), the clear sphere's, which does not move, by both at every call.
+class SphereRows {
+ public:
+  void assign(const Eigen::Vector3d& p, double r2, double vs) {
+    // Every row whose centre can be within reach, with a voxel to spare against rounding; rowSpan
+    // decides.
+    const double r = std::sqrt(r2);
+    y0_ = static_cast<int>(std::floor((p.y() - r) / vs)) - 1;
+    z0_ = static_cast<int>(std::floor((p.z() - r) / vs)) - 1;
+    ny_ = static_cast<int>(std::floor((p.y() + r) / vs)) + 2 - y0_;
+    nz_ = static_cast<int>(std::floor((p.z() + r) / vs)) + 2 - z0_;
+    spans_.resize(static_cast<size_t>(ny_) * static_cast<size_t>(nz_));
+    for (int z = 0; z < nz_; ++z) {
+      for (int y = 0; y < ny_; ++y) spans_[y + ny_ * z] = rowSpan(p, r2, y0_ + y, z0_ + z, vs);
+    }
+  }
+  // rowSpan(p, r2, y, z, vs) of the sphere assigned.
+  Span span(int y, int z) const {
+    const unsigned dy = static_cast<unsigned>(y - y0_);
+    const unsigned dz = static_cast<unsigned>(z - z0_);
+    if (dy >= static_cast<unsigned>(ny_) || dz >= static_cast<unsigned>(nz_)) return {};
+    return spans_[dy + static_cast<unsigned>(ny_) * dz];
+  }
+  size_t memoryBytes() const { return spans_.capacity() * sizeof(Span); }
+
+ private:
+  int y0_ = 0, z0_ = 0, ny_ = 0, nz_ = 0;
+  std::vector<Span> spans_;
+};
 
 // Calls f(lo, hi) for the ranges of a that are not in b.
 template <class F>
@@ -548,6 +582,10 @@ class EsdfIntegrator::Impl {
     beginCall();
     const Eigen::Vector3d previous = position_;
     position_ = position;
+    if (previous != position) {
+      std::swap(previous_rows_, occupied_rows_);
+      occupied_rows_.assign(position_, ro2_, voxel_size_);
+    }
     collect();
     // Block by block in index order, each block once with the union of its sets.
     std::sort(work_.begin(), work_.end(), [](const Work& a, const Work& b) {
@@ -620,7 +658,8 @@ class EsdfIntegrator::Impl {
            (raise_.capacity() + seeds_.capacity() + tentative_.capacity()) * sizeof(VoxelRef) +
            queue_.memoryBytes() +
            (changed_nodes_.capacity() + emptied_.capacity()) * sizeof(BlockNode*) +
-           work_.capacity() * sizeof(Work) + work_sets_.capacity() * sizeof(BlockVoxels);
+           work_.capacity() * sizeof(Work) + work_sets_.capacity() * sizeof(BlockVoxels) +
+           clear_rows_.memoryBytes() + occupied_rows_.memoryBytes() + previous_rows_.memoryBytes();
   }
 
   EsdfUpdateResult recompute(const TsdfLayer& tsdf, const Eigen::Vector3d& position,
@@ -650,6 +689,8 @@ class EsdfIntegrator::Impl {
       }
     }
     position_ = position;
+    clear_rows_.assign(initial_, rc2_, voxel_size_);
+    occupied_rows_.assign(position_, ro2_, voxel_size_);
     beginCall();
 
     std::vector<BlockIndex> blocks = tsdf.blockIndices();
@@ -956,17 +997,15 @@ class EsdfIntegrator::Impl {
     };
     const Relation to_clear = relation(initial_, options_.clear_radius);
     const Relation to_occupied = relation(position_, options_.occupied_radius);
-    auto spanOf = [&](Relation relation, const Eigen::Vector3d& p, double r2, int y, int z) {
-      return relation == kClearOf  ? Span{}
-             : relation == kWithin ? whole
-                                   : rowSpan(p, r2, y, z, voxel_size_);
+    auto spanOf = [&](Relation relation, const SphereRows& rows, int y, int z) {
+      return relation == kClearOf ? Span{} : relation == kWithin ? whole : rows.span(y, z);
     };
     for (int z = 0; z < kVoxelsPerSide; ++z) {
       for (int y = 0; y < kVoxelsPerSide; ++y) {
         unsigned row = which.rows[y + kVoxelsPerSide * z];
         if (row == 0) continue;
-        const Span clear = spanOf(to_clear, initial_, rc2_, origin.y() + y, origin.z() + z);
-        const Span occupied = spanOf(to_occupied, position_, ro2_, origin.y() + y, origin.z() + z);
+        const Span clear = spanOf(to_clear, clear_rows_, origin.y() + y, origin.z() + z);
+        const Span occupied = spanOf(to_occupied, occupied_rows_, origin.y() + y, origin.z() + z);
         for (; row != 0; row &= row - 1) {
           const int x = std::countr_zero(row);
           const int lin = x + kVoxelsPerSide * (y + kVoxelsPerSide * z);
@@ -1016,12 +1055,12 @@ class EsdfIntegrator::Impl {
           y0 = std::max(y0, kVoxelsPerSide * by);
           y1 = std::min(y1, kVoxelsPerSide * (by + 1) - 1);
           for (int y = y0; y <= y1; ++y) {
-            const Span before = rowSpan(previous, ro2_, y, z, voxel_size_);
-            const Span now = rowSpan(current, ro2_, y, z, voxel_size_);
+            const Span before = previous_rows_.span(y, z);
+            const Span now = occupied_rows_.span(y, z);
             if ((before.empty() && now.empty()) || (before.lo == now.lo && before.hi == now.hi)) {
               continue;
             }
-            const Span clear = rowSpan(initial_, rc2_, y, z, voxel_size_);
+            const Span clear = clear_rows_.span(y, z);
             if (!looked_up) {
               row_nodes_.resize(width);
               for (int i = 0; i < width; ++i) {
@@ -1333,6 +1372,9 @@ class EsdfIntegrator::Impl {
   float voxel_size_f_ = 0;
   double rc2_ = 0;
   double ro2_ = 0;
+  // The rows through the clear sphere, the occupied sphere around position_, and around the
+  // previous call's position (valid in sphereMoved).
+  SphereRows clear_rows_, occupied_rows_, previous_rows_;
   std::array<float, 26> edge_{};
   std::array<Floats4, 9> row_edges_{};
 
