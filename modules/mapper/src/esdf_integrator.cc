@@ -1035,32 +1035,18 @@ class EsdfIntegrator::Impl {
     const BlockIndex hi =
         blockOfVoxel(voxelOf((previous.cwiseMax(current).array() + reach).matrix()));
     const int width = hi.x() - lo.x() + 1;
-    // The rows y0..y1 through a sphere's disc at height z (one voxel wider against rounding;
-    // rowSpan decides), or none.
-    auto rows = [&](const Eigen::Vector3d& p, int z, int& y0, int& y1) {
-      const double dz2 = square(centre(z, voxel_size_) - p.z());
-      if (!(dz2 <= ro2_)) return;
-      const double h = std::sqrt(ro2_ - dz2);
-      y0 = std::min(y0, static_cast<int>(std::floor((p.y() - h) / voxel_size_)) - 1);
-      y1 = std::max(y1, static_cast<int>(std::floor((p.y() + h) / voxel_size_)) + 1);
-    };
     for (int bz = lo.z(); bz <= hi.z(); ++bz) {
       for (int by = lo.y(); by <= hi.y(); ++by) {
         // The blocks along x, looked up once for their 256 rows of voxels.
         bool looked_up = false;
         for (int z = kVoxelsPerSide * bz; z < kVoxelsPerSide * (bz + 1); ++z) {
-          int y0 = std::numeric_limits<int>::max(), y1 = std::numeric_limits<int>::min();
-          rows(previous, z, y0, y1);
-          rows(current, z, y0, y1);
-          y0 = std::max(y0, kVoxelsPerSide * by);
-          y1 = std::min(y1, kVoxelsPerSide * (by + 1) - 1);
-          for (int y = y0; y <= y1; ++y) {
+          for (int y = kVoxelsPerSide * by; y < kVoxelsPerSide * (by + 1); ++y) {
+            // Rows through neither sphere have two empty spans.
             const Span before = previous_rows_.span(y, z);
             const Span now = occupied_rows_.span(y, z);
             if ((before.empty() && now.empty()) || (before.lo == now.lo && before.hi == now.hi)) {
               continue;
             }
-            const Span clear = clear_rows_.span(y, z);
             if (!looked_up) {
               row_nodes_.resize(width);
               for (int i = 0; i < width; ++i) {
@@ -1068,64 +1054,70 @@ class EsdfIntegrator::Impl {
               }
               looked_up = true;
             }
-            const int row = kVoxelsPerSide * ((y & 15) + kVoxelsPerSide * (z & 15));
-            // A run of the row, block by block.
-            const auto reclassifyRange = [&](int x0, int x1) {
+            const SphereRow row{y, z, clear_rows_.span(y, z), now};
+            // The run that left, then the one that entered, block by block.
+            const auto reclassifyRun = [&](int x0, int x1) {
               for (int s0 = x0, s1; s0 <= x1; s0 = s1 + 1) {
                 s1 = std::min(x1, s0 | kLast);
-                const int i = (s0 >> 4) - lo.x();
-                BlockNode*& node = row_nodes_[i];
-                // The neighbour test of a run of three or more reads the nine rows once, when the
-                // first voxel needs it (rowPropagatingColumns).
-                const bool by_columns = s1 - s0 >= 2;
-                uint32_t columns = 0;
-                bool have_columns = false;
-                for (int x = s0; x <= s1; ++x) {
-                  const int lin = (x & 15) + row;
-                  const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
-                  // A published class is that of an observed voxel, which the spheres do not
-                  // change (and which was classified with its block if its TSDF changed), or of
-                  // an unobserved one in the clear sphere, which does not move: free, as it stays.
-                  // Either way nothing changes, and the TSDF need not tell which.
-                  if (published(old)) continue;
-                  const Classified c = unobservedClass(x, clear, now);
-                  if (unchanged(node, lin, c)) continue;
-                  const BlockIndex b(lo.x() + i, by, bz);
-                  if (node == nullptr) node = allocate(b);
-                  // Between unknown and occupied with no free or inside neighbour (most of the
-                  // sphere's edge), in place. Only here: the classification is done, so the
-                  // neighbours' classes are final (this pass changes only unknown and occupied
-                  // ones).
-                  if (!published(c.cls)) {
-                    bool near;
-                    if (by_columns) {
-                      if (!have_columns) {
-                        columns = node->propagating > 0 || blockNearPropagating(node)
-                                      ? rowPropagatingColumns(node, row,
-                                                              (s0 & 15) == 0 || (s1 & 15) == kLast)
-                                      : 0;
-                        have_columns = true;
-                      }
-                      near = (columns >> (x & 15) & 7) != 0;
-                    } else {
-                      near = hasPropagatingNeighbour(node, lin);
-                    }
-                    if (!near) {
-                      flipUnpublished(node, lin, c.cls);
-                      continue;
-                    }
-                  }
-                  reclassify(node, b, lin, c);
-                  // Should the voxel now propagate, its neighbours' columns changed.
-                  have_columns = have_columns && !propagates(c.cls);
-                }
+                reclassifyStretch(row, row_nodes_[(s0 >> 4) - lo.x()], s0, s1);
               }
             };
-            forEachInDifference(before, now, reclassifyRange);  // left
-            forEachInDifference(now, before, reclassifyRange);  // entered
+            forEachInDifference(before, now, reclassifyRun);
+            forEachInDifference(now, before, reclassifyRun);
           }
         }
       }
+    }
+  }
+
+  // A row (y, z) of voxels through the sphere's pass, with the spans of the clear and the occupied
+  // sphere.
+  struct SphereRow {
+    int y, z;
+    Span clear, occupied;
+  };
+
+  // Reclassifies voxels s0..s1 of the row, which left or entered the occupied sphere and lie in
+  // one block (node: nullptr if not allocated yet).
+  void reclassifyStretch(const SphereRow& row, BlockNode*& node, int s0, int s1) {
+    const BlockIndex b(s0 >> 4, row.y >> 4, row.z >> 4);
+    const int first = kVoxelsPerSide * ((row.y & 15) + kVoxelsPerSide * (row.z & 15));
+    // The neighbour test of a stretch of three or more reads the nine rows once, when the first
+    // voxel needs it (rowPropagatingColumns).
+    const bool by_columns = s1 - s0 >= 2;
+    uint32_t columns = 0;
+    bool have_columns = false;
+    const auto hasNeighbour = [&](int x, int lin) {
+      if (!by_columns) return hasPropagatingNeighbour(node, lin);
+      if (!have_columns) {
+        columns = node->propagating > 0 || blockNearPropagating(node)
+                      ? rowPropagatingColumns(node, first, (s0 & 15) == 0 || (s1 & 15) == kLast)
+                      : 0;
+        have_columns = true;
+      }
+      return (columns >> (x & 15) & 7) != 0;
+    };
+    for (int x = s0; x <= s1; ++x) {
+      const int lin = (x & 15) + first;
+      const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
+      // A published class is that of an observed voxel, which the spheres do not change (and
+      // which was classified with its block if its TSDF changed), or of an unobserved one in the
+      // clear sphere, which does not move: free, as it stays. Either way nothing changes, and the
+      // TSDF need not tell which.
+      if (published(old)) continue;
+      const Classified c = unobservedClass(x, row.clear, row.occupied);
+      if (unchanged(node, lin, c)) continue;
+      if (node == nullptr) node = allocate(b);
+      // Between unknown and occupied with no free or inside neighbour (most of the sphere's
+      // edge), in place. Only here: the classification is done, so the neighbours' classes are
+      // final (this pass changes only unknown and occupied ones).
+      if (!published(c.cls) && !hasNeighbour(x, lin)) {
+        flipUnpublished(node, lin, c.cls);
+        continue;
+      }
+      reclassify(node, b, lin, c);
+      // Should the voxel now propagate, its neighbours' columns changed.
+      have_columns = have_columns && !propagates(c.cls);
     }
   }
 
