@@ -53,9 +53,10 @@ BENCHMARK(BM_TsdfInsert)
 
 // Maps the flight with every stride-th frame; the TSDF insert of each frame runs untimed before
 // its ESDF update.
-void esdfFlight(benchmark::State& state, double voxel, size_t stride) {
+void esdfFlight(benchmark::State& state, double voxel, size_t stride,
+                const mapper::EsdfIntegratorOptions& options = {}) {
   const mapper::TsdfIntegrator tsdf_integrator(tsdfOptions(0));
-  mapper::EsdfIntegrator esdf_integrator{mapper::EsdfIntegratorOptions{}};
+  mapper::EsdfIntegrator esdf_integrator{options};
   esdf_integrator.setInitialPosition(flightFrames().front().world_T_body.position);
   TsdfLayer tsdf(voxel);
   EsdfLayer esdf(voxel);
@@ -102,6 +103,29 @@ BENCHMARK(BM_EsdfUpdateFaster)
 BENCHMARK(BM_EsdfUpdateFaster)
     ->Args({200, 4})
     ->Iterations(kFlightFrames / 4)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
+
+// Args: voxel size in mm, stride. BM_EsdfUpdateFaster with occupied_everywhere: no occupied
+// sphere moving with the vehicle.
+void BM_EsdfUpdateEverywhere(benchmark::State& state) {
+  mapper::EsdfIntegratorOptions options;
+  options.occupied_everywhere = true;
+  esdfFlight(state, state.range(0) * 1e-3, static_cast<size_t>(state.range(1)), options);
+}
+BENCHMARK(BM_EsdfUpdateEverywhere)
+    ->Args({200, 4})
+    ->Iterations(kFlightFrames / 4)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EsdfUpdateEverywhere)
+    ->Args({100, 1})
+    ->Iterations(kFlightFrames)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EsdfUpdateEverywhere)
+    ->Args({50, 1})
+    ->Iterations(kFlightFrames)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);
 

@@ -216,11 +216,15 @@ void forEachInDifference(const Span& a, const Span& b, F&& f) {
 
 // The integrator's side of one ESDF block: each voxel's class, value and shortest-path parent.
 struct BlockNode {
-  // none: the stand-in for blocks that are not allocated.
+  // none: the stand-in for blocks that are not allocated, whose classes a new node starts with.
   BlockNode(const BlockIndex& block_index, BlockNode* none) : index(block_index) {
     neighbours.fill(none);
     neighbours[kMiddle] = this;
     parent.fill(kNoParent);
+    if (none != nullptr) {
+      state = none->state;
+      known = none->known;
+    }
   }
   BlockIndex index;
   uint32_t id = 0;  // the integrator's short name for the node
@@ -504,6 +508,10 @@ void EsdfIntegratorOptions::declare(Params& p) {
     "r_c: unobserved voxels this close to the initial position are free [m]", Range::positive());
   p("occupied_radius", occupied_radius,
     "r_o: unobserved voxels this close to the vehicle are occupied [m]", Range::positive());
+  p("occupied_everywhere", occupied_everywhere,
+    "unobserved voxels outside the clear sphere are occupied wherever they are, not only within "
+    "occupied_radius: the same distances within occupied_radius - max_distance of the vehicle, "
+    "and no sphere to move");
   p("surface_band_voxels", surface_band_voxels,
     "observed voxels with |TSDF distance| <= this * voxel size are fixed sites [voxels]",
     Range::positive());
@@ -525,6 +533,10 @@ class EsdfIntegrator::Impl {
     }
     max_ = static_cast<float>(options.max_distance);
     min_weight_ = static_cast<float>(options.min_weight);
+    if (options.occupied_everywhere) {
+      none_->state.fill(kOccupied);
+      none_->known = kVoxelsPerBlock;
+    }
   }
 
   const EsdfIntegratorOptions& options() const { return options_; }
@@ -582,7 +594,8 @@ class EsdfIntegrator::Impl {
     beginCall();
     const Eigen::Vector3d previous = position_;
     position_ = position;
-    if (previous != position) {
+    const bool sphere_moved = previous != position && !options_.occupied_everywhere;
+    if (sphere_moved) {
       std::swap(previous_rows_, occupied_rows_);
       occupied_rows_.assign(position_, ro2_, voxel_size_);
     }
@@ -601,7 +614,7 @@ class EsdfIntegrator::Impl {
       // arrived, which sphereMoved handles.
       if (star.centre() != nullptr || node != nullptr) classifyVoxels(b, star, node, voxels);
     }
-    if (previous != position) sphereMoved(previous);
+    if (sphere_moved) sphereMoved(previous);
     propagate(/*incremental=*/true);
     EsdfUpdateResult result = finish(esdf, /*whole_blocks=*/false);
     built_ = true;
@@ -690,12 +703,14 @@ class EsdfIntegrator::Impl {
     }
     position_ = position;
     clear_rows_.assign(initial_, rc2_, voxel_size_);
-    occupied_rows_.assign(position_, ro2_, voxel_size_);
+    if (!options_.occupied_everywhere) occupied_rows_.assign(position_, ro2_, voxel_size_);
     beginCall();
 
     std::vector<BlockIndex> blocks = tsdf.blockIndices();
     appendSphereBlocks(initial_, options_.clear_radius, blocks);
-    appendSphereBlocks(position, options_.occupied_radius, blocks);
+    if (!options_.occupied_everywhere) {
+      appendSphereBlocks(position, options_.occupied_radius, blocks);
+    }
     std::sort(blocks.begin(), blocks.end(), indexLess);
     blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
     for (const BlockIndex& b : blocks) {
@@ -916,9 +931,10 @@ class EsdfIntegrator::Impl {
   }
 
   // Whether voxel lin already has class c (a site: and its value). Propagated values do not count.
-  static bool unchanged(const BlockNode* node, int lin, const Classified& c) {
-    const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
-    return old == c.cls && (!isSite(old) || std::bit_cast<uint32_t>(node->value[lin]) ==
+  bool unchanged(const BlockNode* node, int lin, const Classified& c) const {
+    const BlockNode* n = node != nullptr ? node : none_.get();
+    const uint8_t old = n->state[lin] & kClassMask;
+    return old == c.cls && (!isSite(old) || std::bit_cast<uint32_t>(n->value[lin]) ==
                                                 std::bit_cast<uint32_t>(c.value));
   }
 
@@ -955,8 +971,8 @@ class EsdfIntegrator::Impl {
   void reclassify(BlockNode*& node, const BlockIndex& b, int lin, const Classified& c) {
     const uint8_t cls = c.cls;
     const float value = c.value;
-    const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
     if (node == nullptr) node = allocate(b);
+    const uint8_t old = node->state[lin] & kClassMask;
     touch(node, lin);
     const float old_value = node->value[lin];
     uint8_t raise = 0;
@@ -996,7 +1012,8 @@ class EsdfIntegrator::Impl {
       return kCrossing;
     };
     const Relation to_clear = relation(initial_, options_.clear_radius);
-    const Relation to_occupied = relation(position_, options_.occupied_radius);
+    const Relation to_occupied =
+        options_.occupied_everywhere ? kWithin : relation(position_, options_.occupied_radius);
     auto spanOf = [&](Relation relation, const SphereRows& rows, int y, int z) {
       return relation == kClearOf ? Span{} : relation == kWithin ? whole : rows.span(y, z);
     };
@@ -1249,8 +1266,10 @@ class EsdfIntegrator::Impl {
       });
     }
     // ... and by the best neighbour of every invalidated, re-evaluated or reclassified voxel: once
-    // the raise is done, every value is the length of a real path (from scratch, none is).
-    if (incremental) {
+    // the raise is done, every value is the length of a real path (from scratch, none is). From
+    // scratch with occupied_everywhere too: every free or inside voxel, for the occupied sites of
+    // blocks not allocated, which no seed stands for.
+    if (incremental || options_.occupied_everywhere) {
       for (const VoxelRef& t : tentative_) {
         const uint8_t cls = t.node->state[t.lin] & kClassMask;
         float best = t.node->value[t.lin];

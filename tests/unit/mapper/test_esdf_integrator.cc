@@ -747,12 +747,12 @@ TEST(EsdfIntegrator, FrameTimesWithNoisyMeasurements) {
 // the whole changed blocks. Both give the same layer at every frame, bit for bit, and equal a
 // recompute every check_every-th frame and at the end, bit for bit too: the distances are the
 // one fixed point of the propagation, whatever order the wavefront visits voxels in.
-void flyBenchmarkFlight(double voxel_size, size_t check_every) {
+void flyBenchmarkFlight(double voxel_size, size_t check_every,
+                        const EsdfIntegratorOptions& options = {}) {
   const std::vector<thicket::Pose> poses = thicket::bench::flightPoses(0.25, 80);
   const thicket::sim::DepthRenderer renderer(thicket::bench::forest(),
                                              thicket::sim::DepthCameraOptions{});
   const thicket::mapper::TsdfIntegrator tsdf_integrator{thicket::mapper::TsdfIntegratorOptions{}};
-  const EsdfIntegratorOptions options;
   EsdfIntegrator integrator(options);
   integrator.setInitialPosition(poses.front().position);
   EsdfIntegrator by_blocks(options);
@@ -859,6 +859,72 @@ TEST(EsdfIntegrator, IncrementalEqualsRecomputeOnBenchmarkFlightAt20cm) {
 // Every 20th frame, to keep the test short: checking all 80 takes about four times as long.
 TEST(EsdfIntegrator, IncrementalEqualsRecomputeOnBenchmarkFlightAt10cm) {
   flyBenchmarkFlight(0.1, 20);
+}
+
+TEST(EsdfIntegrator, IncrementalEqualsRecomputeWithOccupiedEverywhere) {
+  EsdfIntegratorOptions options;
+  options.occupied_everywhere = true;
+  flyBenchmarkFlight(0.2, 1, options);
+}
+
+// occupied_everywhere against the occupied sphere on the benchmark flight at 0.2 m: the same
+// blocks and flags everywhere, the same distances bit for bit within occupied_radius -
+// max_distance - one voxel of the vehicle, and no longer ones anywhere (more sites). Some voxels
+// farther out do differ, or the option would have changed nothing.
+TEST(EsdfIntegrator, OccupiedEverywhereEqualsTheSphereNearTheVehicle) {
+  const double voxel_size = 0.2;
+  const std::vector<thicket::Pose> poses = thicket::bench::flightPoses(0.25, 80);
+  const thicket::sim::DepthRenderer renderer(thicket::bench::forest(),
+                                             thicket::sim::DepthCameraOptions{});
+  const thicket::mapper::TsdfIntegrator tsdf_integrator{thicket::mapper::TsdfIntegratorOptions{}};
+  const EsdfIntegratorOptions sphere;
+  EsdfIntegratorOptions everywhere;
+  everywhere.occupied_everywhere = true;
+  EsdfIntegrator with_sphere(sphere);
+  EsdfIntegrator without(everywhere);
+  with_sphere.setInitialPosition(poses.front().position);
+  without.setInitialPosition(poses.front().position);
+  TsdfLayer tsdf(voxel_size);
+  EsdfLayer a(voxel_size);
+  EsdfLayer b(voxel_size);
+  const double exact_radius = sphere.occupied_radius - sphere.max_distance - voxel_size;
+  int64_t utime = 0;
+  int64_t near = 0;
+  int64_t far_shorter = 0;
+  for (size_t i = 0; i < poses.size(); i += 4) {
+    const thicket::DepthImage image = renderer.renderImage(poses[i], utime += 1'000'000);
+    const auto changed = tsdf_integrator.integrate(image, poses[i] * renderer.cameraInBody(), tsdf);
+    const Eigen::Vector3d p = poses[i].position;
+    with_sphere.update(tsdf, changed, p, a);
+    without.update(tsdf, changed, p, b);
+    ASSERT_EQ(a.blockIndices(), b.blockIndices()) << "frame " << i;
+    for (const BlockIndex& index : a.blockIndices()) {
+      const auto& va = a.block(index)->voxels;
+      const auto& vb = b.block(index)->voxels;
+      for (int lin = 0; lin < kVoxelsPerBlock; ++lin) {
+        const VoxelIndex v =
+            index * thicket::kVoxelsPerSide + VoxelIndex(lin & 15, (lin >> 4) & 15, lin >> 8);
+        const Eigen::Vector3d centre = (v.cast<double>().array() + 0.5).matrix() * voxel_size;
+        ASSERT_EQ(va[lin].observed, vb[lin].observed)
+            << "frame " << i << " voxel " << v.transpose();
+        ASSERT_EQ(va[lin].fixed, vb[lin].fixed) << "frame " << i << " voxel " << v.transpose();
+        if ((centre - p).norm() <= exact_radius) {
+          ASSERT_EQ(std::bit_cast<uint32_t>(va[lin].distance),
+                    std::bit_cast<uint32_t>(vb[lin].distance))
+              << "frame " << i << " voxel " << v.transpose();
+          near += va[lin].observed;
+        } else {
+          ASSERT_LE(std::abs(vb[lin].distance), std::abs(va[lin].distance))
+              << "frame " << i << " voxel " << v.transpose();
+          far_shorter += std::abs(vb[lin].distance) < std::abs(va[lin].distance);
+        }
+      }
+    }
+  }
+  EXPECT_GT(near, 10000);
+  EXPECT_GT(far_shorter, 1000);
+  // No state for the unobserved space of the sphere.
+  EXPECT_LT(without.memoryBytes(), with_sphere.memoryBytes());
 }
 
 }  // namespace

@@ -10,8 +10,8 @@
 //     the magnitude from propagation (observed, not fixed);
 //   - unobserved within clear_radius of the initial position: free (observed, not fixed), so that
 //     the vehicle can take off;
-//   - otherwise unobserved within occupied_radius of the current position: an occupied site at
-//     distance 0;
+//   - otherwise unobserved within occupied_radius of the current position (or anywhere, with
+//     occupied_everywhere): an occupied site at distance 0;
 //   - otherwise unknown, outside the propagation.
 // The layer shows observed voxels with their distance (fixed: a site), and unobserved ones, the
 // occupied sites among them, as unknown (distance 0, neither observed nor fixed): its readers
@@ -52,6 +52,14 @@ struct EsdfIntegratorOptions {
   /// than clear_radius is allowed (then only the clear sphere's outside is occupied near the
   /// start).
   double occupied_radius = 5.0;
+  /// Unobserved voxels outside the clear sphere are occupied sites wherever they are, not only
+  /// within occupied_radius of the current position (which this leaves unused). Within
+  /// occupied_radius - max_distance - one voxel of the current position the distances are the
+  /// sphere's bit for bit (a path to a site beyond the sphere is longer than max_distance); farther
+  /// out they can only be shorter, and the flags are the same everywhere. Nothing moves with the
+  /// vehicle, so an update does only the work its TSDF changes make, and unobserved space takes
+  /// no state.
+  bool occupied_everywhere = false;
   /// Observed voxels with |TSDF distance| <= this * voxel size are fixed sites. Wider than one
   /// voxel, so that surfaces seen at grazing angles (the ground), whose projective distances
   /// stretch by 1 / cos(incidence), still have a site in every voxel column through them.
