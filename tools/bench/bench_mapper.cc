@@ -120,10 +120,6 @@ BENCHMARK(BM_EsdfUpdateEverywhere)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_EsdfUpdateEverywhere)
     ->Args({100, 1})
-    ->Iterations(kFlightFrames)
-    ->UseManualTime()
-    ->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_EsdfUpdateEverywhere)
     ->Args({50, 1})
     ->Iterations(kFlightFrames)
     ->UseManualTime()

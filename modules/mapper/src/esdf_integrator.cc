@@ -930,9 +930,14 @@ class EsdfIntegrator::Impl {
     return {kUnknown, 0};
   }
 
+  // The node of a block, or the stand-in whose classes a block has while it is not allocated.
+  const BlockNode* orNone(const BlockNode* node) const {
+    return node != nullptr ? node : none_.get();
+  }
+
   // Whether voxel lin already has class c (a site: and its value). Propagated values do not count.
   bool unchanged(const BlockNode* node, int lin, const Classified& c) const {
-    const BlockNode* n = node != nullptr ? node : none_.get();
+    const BlockNode* n = orNone(node);
     const uint8_t old = n->state[lin] & kClassMask;
     return old == c.cls && (!isSite(old) || std::bit_cast<uint32_t>(n->value[lin]) ==
                                                 std::bit_cast<uint32_t>(c.value));
@@ -1116,7 +1121,7 @@ class EsdfIntegrator::Impl {
     };
     for (int x = s0; x <= s1; ++x) {
       const int lin = (x & 15) + first;
-      const uint8_t old = node != nullptr ? node->state[lin] & kClassMask : kUnknown;
+      const uint8_t old = orNone(node)->state[lin] & kClassMask;
       // A published class is that of an observed voxel, which the spheres do not change (and
       // which was classified with its block if its TSDF changed), or of an unobserved one in the
       // clear sphere, which does not move: free, as it stays. Either way nothing changes, and the
