@@ -509,9 +509,9 @@ void EsdfIntegratorOptions::declare(Params& p) {
   p("occupied_radius", occupied_radius,
     "r_o: unobserved voxels this close to the vehicle are occupied [m]", Range::positive());
   p("occupied_everywhere", occupied_everywhere,
-    "unobserved voxels outside the clear sphere are occupied wherever they are, not only within "
-    "occupied_radius: the same distances within occupied_radius - max_distance of the vehicle, "
-    "and no sphere to move");
+    "unobserved voxels outside the clear sphere are occupied wherever they are; false: only "
+    "within occupied_radius (the paper's sphere, moving with the vehicle). The distances within "
+    "occupied_radius - max_distance of the vehicle are the same either way");
   p("surface_band_voxels", surface_band_voxels,
     "observed voxels with |TSDF distance| <= this * voxel size are fixed sites [voxels]",
     Range::positive());

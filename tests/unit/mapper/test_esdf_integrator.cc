@@ -213,8 +213,33 @@ double millisecondsSince(std::chrono::steady_clock::time_point start) {
 
 // ---------------------------------------------------------------------------------------------
 
-// The ESDF of a fully observed analytic world against its true signed distance.
-void checkGroundTruth(double voxel_size) {
+// How far the nearest unobserved voxel of `tsdf` is from v (at most max_distance + a voxel), where
+// the observed voxels are a box of the grid: straight across the nearest face, a whole number of
+// voxels.
+double unobservedDistance(const TsdfLayer& tsdf, const VoxelIndex& v, double max_distance) {
+  const int max_steps = static_cast<int>(std::ceil(max_distance / tsdf.voxelSize())) + 1;
+  int nearest = max_steps;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const int direction : {-1, 1}) {
+      VoxelIndex u = v;
+      for (int step = 1; step < nearest; ++step) {
+        u[axis] += direction;
+        const TsdfVoxel* voxel = tsdf.voxel(u);
+        if (voxel == nullptr || voxel->weight <= 0) {
+          nearest = step;
+          break;
+        }
+      }
+    }
+  }
+  return nearest * tsdf.voxelSize();
+}
+
+// The ESDF of a fully observed analytic world against its true signed distance. With the paper's
+// sphere, the vehicle is far away and the world alone decides; with every unobserved voxel
+// occupied, the truth is the nearer of the world's surface and the unobserved space around the
+// observed box.
+void checkGroundTruth(double voxel_size, bool occupied_everywhere) {
   const World world{
       {{2.5, 3.0, 0.5}, {6.0, 2.5, 0.3}, {5.0, 6.5, 0.8}, {8.0, 7.5, 0.4}, {3.0, 8.0, 0.6}}};
   const Box box{{0, 0, -0.6}, {10, 10, 2.4}};
@@ -224,6 +249,7 @@ void checkGroundTruth(double voxel_size) {
   observe(tsdf, world, box, truncation, /*see_deep=*/true, changed);
 
   EsdfIntegratorOptions options;
+  options.occupied_everywhere = occupied_everywhere;
   EsdfIntegrator integrator(options);
   integrator.setInitialPosition(kFarAway);
   EsdfLayer esdf(voxel_size);
@@ -235,7 +261,13 @@ void checkGroundTruth(double voxel_size) {
   std::vector<double> free_errors, inside_errors;
   forEachVoxel(tsdf, box, [&](const VoxelIndex& v) {
     const Eigen::Vector3d c = tsdf.voxelCenter(v);
-    const double truth = world.signedDistance(c);
+    const double world_truth = world.signedDistance(c);
+    const double truth =
+        occupied_everywhere
+            ? std::copysign(std::min(std::abs(world_truth),
+                                     unobservedDistance(tsdf, v, options.max_distance)),
+                            world_truth)
+            : world_truth;
     const EsdfVoxel* voxel = esdf.voxel(v);
     ASSERT_NE(voxel, nullptr);
     ASSERT_TRUE(voxel->observed);
@@ -271,17 +303,23 @@ void checkGroundTruth(double voxel_size) {
 }
 
 TEST(EsdfIntegrator, GroundTruthAt20cm) {
-  checkGroundTruth(0.2);
+  checkGroundTruth(0.2, true);
 }
 TEST(EsdfIntegrator, GroundTruthAt10cm) {
-  checkGroundTruth(0.1);
+  checkGroundTruth(0.1, true);
+}
+TEST(EsdfIntegrator, GroundTruthWithTheOccupiedSphereAt20cm) {
+  checkGroundTruth(0.2, false);
+}
+TEST(EsdfIntegrator, GroundTruthWithTheOccupiedSphereAt10cm) {
+  checkGroundTruth(0.1, false);
 }
 
 // ---------------------------------------------------------------------------------------------
 
 // A random sequence of TSDF edits and vehicle moves; after each update() the layer must equal
 // recompute() and the report must name exactly the blocks that changed. Returns the final layer.
-Snapshot runRandomSequence(uint64_t seed, int steps, bool check) {
+Snapshot runRandomSequence(uint64_t seed, int steps, bool check, bool occupied_everywhere) {
   std::mt19937_64 rng(seed);
   auto uniform = [&](double lo, double hi) {
     return std::uniform_real_distribution<>(lo, hi)(rng);
@@ -293,6 +331,7 @@ Snapshot runRandomSequence(uint64_t seed, int steps, bool check) {
   options.max_distance = 1.2;
   options.clear_radius = 1.0;
   options.occupied_radius = 2.4;
+  options.occupied_everywhere = occupied_everywhere;
   World world;
   for (int i = 0; i < 4; ++i) {
     world.cylinders.push_back({uniform(1, 7), uniform(1, 7), uniform(0.2, 0.6)});
@@ -403,18 +442,25 @@ Snapshot runRandomSequence(uint64_t seed, int steps, bool check) {
 }
 
 TEST(EsdfIntegrator, IncrementalEqualsRecomputeOnRandomEdits) {
-  for (const uint64_t seed : {1, 2, 3}) runRandomSequence(seed, 25, /*check=*/true);
+  for (const bool everywhere : {true, false}) {
+    SCOPED_TRACE(everywhere ? "occupied everywhere" : "occupied sphere");
+    for (const uint64_t seed : {1, 2, 3}) runRandomSequence(seed, 25, /*check=*/true, everywhere);
+  }
 }
 
 TEST(EsdfIntegrator, DeterministicBytes) {
-  EXPECT_EQ(runRandomSequence(7, 15, false), runRandomSequence(7, 15, false));
+  for (const bool everywhere : {true, false}) {
+    EXPECT_EQ(runRandomSequence(7, 15, false, everywhere),
+              runRandomSequence(7, 15, false, everywhere));
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
 
 TEST(EsdfIntegrator, UnknownSpacePolicy) {
   const double vs = 0.2;
-  const EsdfIntegratorOptions options;  // r_c 1.5, r_o 5, max 2
+  EsdfIntegratorOptions options;        // r_c 1.5, r_o 5, max 2
+  options.occupied_everywhere = false;  // the sphere's policy: unobserved beyond r_o is unknown
   const TsdfLayer tsdf(vs);
   // Off the voxel centres, so that no centre lies exactly on a sphere (where rounding decides).
   const Eigen::Vector3d start(0.13, 0.07, 1.11);
@@ -554,7 +600,9 @@ TEST(EsdfIntegrator, RaiseWhenAnObstacleDisappears) {
   const double truncation = 4 * vs;
   const EsdfIntegratorOptions options;
   World world{{{3.0, 3.0, 0.5}}};
-  const Box box{{0, 0, -0.6}, {6, 6, 3.0}};
+  // Observed up to 4 m, so that the unobserved space above (occupied) is farther from the points
+  // below than the ground is.
+  const Box box{{0, 0, -0.6}, {6, 6, 4.0}};
   TsdfLayer tsdf(vs);
   std::vector<BlockIndex> changed;
   observe(tsdf, world, box, truncation, true, changed);
@@ -580,7 +628,7 @@ TEST(EsdfIntegrator, RaiseWhenAnObstacleDisappears) {
   // becomes free.
   world.cylinders.clear();
   changed.clear();
-  observe(tsdf, world, {{1.5, 1.5, -0.6}, {4.5, 4.5, 3.0}}, truncation, true, changed);
+  observe(tsdf, world, {{1.5, 1.5, -0.6}, {4.5, 4.5, 4.0}}, truncation, true, changed);
   const Snapshot before = snapshot(esdf);
   result = integrator.update(tsdf, changed, kFarAway, esdf);
   expectReportMatches(before, snapshot(esdf), result);
@@ -593,7 +641,7 @@ TEST(EsdfIntegrator, RaiseWhenAnObstacleDisappears) {
   // And back (lower): the original field again.
   world.cylinders.push_back({3.0, 3.0, 0.5});
   changed.clear();
-  observe(tsdf, world, {{1.5, 1.5, -0.6}, {4.5, 4.5, 3.0}}, truncation, true, changed);
+  observe(tsdf, world, {{1.5, 1.5, -0.6}, {4.5, 4.5, 4.0}}, truncation, true, changed);
   integrator.update(tsdf, changed, kFarAway, esdf);
   EXPECT_TRUE(sameEsdf(esdf, original, 1e-5));
 }
@@ -740,8 +788,9 @@ TEST(EsdfIntegrator, FrameTimesWithNoisyMeasurements) {
 // ---------------------------------------------------------------------------------------------
 
 // The mapping benchmark's flight (tools/bench/bench_mapper.cc): 80 depth frames of forest50 at
-// density 0.2, seed 1, every 0.25 m, integrated into the TSDF and the ESDF as the mapper does,
-// the occupied sphere following the vehicle. update() must equal recompute() after every
+// density 0.2, seed 1, every 0.25 m, integrated into the TSDF and the ESDF as the mapper does
+// (by default every unobserved voxel occupied; the sphere following the vehicle when the options
+// say so). update() must equal recompute() after every
 // `check_every`-th frame and the last.
 // Maps the benchmark flight twice: from the integration's report of changed voxels, and from
 // the whole changed blocks. Both give the same layer at every frame, bit for bit, and equal a
@@ -861,9 +910,9 @@ TEST(EsdfIntegrator, IncrementalEqualsRecomputeOnBenchmarkFlightAt10cm) {
   flyBenchmarkFlight(0.1, 20);
 }
 
-TEST(EsdfIntegrator, IncrementalEqualsRecomputeWithOccupiedEverywhere) {
+TEST(EsdfIntegrator, IncrementalEqualsRecomputeWithTheOccupiedSphere) {
   EsdfIntegratorOptions options;
-  options.occupied_everywhere = true;
+  options.occupied_everywhere = false;
   flyBenchmarkFlight(0.2, 1, options);
 }
 
@@ -877,7 +926,8 @@ TEST(EsdfIntegrator, OccupiedEverywhereEqualsTheSphereNearTheVehicle) {
   const thicket::sim::DepthRenderer renderer(thicket::bench::forest(),
                                              thicket::sim::DepthCameraOptions{});
   const thicket::mapper::TsdfIntegrator tsdf_integrator{thicket::mapper::TsdfIntegratorOptions{}};
-  const EsdfIntegratorOptions sphere;
+  EsdfIntegratorOptions sphere;
+  sphere.occupied_everywhere = false;
   EsdfIntegratorOptions everywhere;
   everywhere.occupied_everywhere = true;
   EsdfIntegrator with_sphere(sphere);

@@ -10,9 +10,9 @@
 //     the magnitude from propagation (observed, not fixed);
 //   - unobserved within clear_radius of the initial position: free (observed, not fixed), so that
 //     the vehicle can take off;
-//   - otherwise unobserved within occupied_radius of the current position (or anywhere, with
-//     occupied_everywhere): an occupied site at distance 0;
-//   - otherwise unknown, outside the propagation.
+//   - otherwise unobserved: an occupied site at distance 0 (occupied_everywhere, the default), or,
+//     with the paper's sphere (occupied_everywhere off), one only within occupied_radius of the
+//     current position and unknown, outside the propagation, beyond it.
 // The layer shows observed voxels with their distance (fixed: a site), and unobserved ones, the
 // occupied sites among them, as unknown (distance 0, neither observed nor fixed): its readers
 // treat unobserved space as an obstacle, and the sites act through the distances near them.
@@ -26,7 +26,7 @@
 // same flags and blocks, and the same distances bit for bit on the tested flights: each is the one
 // fixed point of the propagation, whatever order the wavefront visits voxels in; only the parents
 // may differ where paths tie). An ESDF block is allocated exactly when one of its voxels is
-// observed, so the occupied sphere moving through unobserved space changes no block.
+// observed, so unobserved space (or the occupied sphere moving through it) changes no block.
 // Deterministic: the same calls give the same bytes.
 #pragma once
 
@@ -53,13 +53,14 @@ struct EsdfIntegratorOptions {
   /// start).
   double occupied_radius = 5.0;
   /// Unobserved voxels outside the clear sphere are occupied sites wherever they are, not only
-  /// within occupied_radius of the current position (which this leaves unused). Within
+  /// within occupied_radius of the current position (which this leaves unused; false gives the
+  /// paper's sphere). Within
   /// occupied_radius - max_distance - one voxel of the current position the distances are the
   /// sphere's bit for bit (a path to a site beyond the sphere is longer than max_distance); farther
   /// out they can only be shorter, and the flags are the same everywhere. Nothing moves with the
   /// vehicle, so an update does only the work its TSDF changes make, and unobserved space takes
   /// no state.
-  bool occupied_everywhere = false;
+  bool occupied_everywhere = true;
   /// Observed voxels with |TSDF distance| <= this * voxel size are fixed sites. Wider than one
   /// voxel, so that surfaces seen at grazing angles (the ground), whose projective distances
   /// stretch by 1 / cos(incidence), still have a site in every voxel column through them.
