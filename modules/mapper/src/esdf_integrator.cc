@@ -507,7 +507,9 @@ void EsdfIntegratorOptions::declare(Params& p) {
   p("clear_radius", clear_radius,
     "r_c: unobserved voxels this close to the initial position are free [m]", Range::positive());
   p("occupied_radius", occupied_radius,
-    "r_o: unobserved voxels this close to the vehicle are occupied [m]", Range::positive());
+    "r_o: with occupied_everywhere false, unobserved voxels this close to the vehicle are "
+    "occupied [m]",
+    Range::positive());
   p("occupied_everywhere", occupied_everywhere,
     "unobserved voxels outside the clear sphere are occupied wherever they are; false: only "
     "within occupied_radius (the paper's sphere, moving with the vehicle). The distances within "

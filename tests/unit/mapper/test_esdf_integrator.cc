@@ -213,11 +213,12 @@ double millisecondsSince(std::chrono::steady_clock::time_point start) {
 
 // ---------------------------------------------------------------------------------------------
 
-// How far the nearest unobserved voxel of `tsdf` is from v (at most max_distance + a voxel), where
-// the observed voxels are a box of the grid: straight across the nearest face, a whole number of
-// voxels.
-double unobservedDistance(const TsdfLayer& tsdf, const VoxelIndex& v, double max_distance) {
-  const int max_steps = static_cast<int>(std::ceil(max_distance / tsdf.voxelSize())) + 1;
+// How far the nearest voxel of `tsdf` that `options` call unobserved is from v (capped beyond
+// max_distance), where the observed voxels are a box of the grid: straight across the nearest
+// face, a whole number of voxels.
+double unobservedDistance(const TsdfLayer& tsdf, const VoxelIndex& v,
+                          const EsdfIntegratorOptions& options) {
+  const int max_steps = static_cast<int>(std::ceil(options.max_distance / tsdf.voxelSize())) + 1;
   int nearest = max_steps;
   for (int axis = 0; axis < 3; ++axis) {
     for (const int direction : {-1, 1}) {
@@ -225,7 +226,7 @@ double unobservedDistance(const TsdfLayer& tsdf, const VoxelIndex& v, double max
       for (int step = 1; step < nearest; ++step) {
         u[axis] += direction;
         const TsdfVoxel* voxel = tsdf.voxel(u);
-        if (voxel == nullptr || voxel->weight <= 0) {
+        if (voxel == nullptr || voxel->weight < options.min_weight) {
           nearest = step;
           break;
         }
@@ -264,8 +265,7 @@ void checkGroundTruth(double voxel_size, bool occupied_everywhere) {
     const double world_truth = world.signedDistance(c);
     const double truth =
         occupied_everywhere
-            ? std::copysign(std::min(std::abs(world_truth),
-                                     unobservedDistance(tsdf, v, options.max_distance)),
+            ? std::copysign(std::min(std::abs(world_truth), unobservedDistance(tsdf, v, options)),
                             world_truth)
             : world_truth;
     const EsdfVoxel* voxel = esdf.voxel(v);
@@ -303,16 +303,16 @@ void checkGroundTruth(double voxel_size, bool occupied_everywhere) {
 }
 
 TEST(EsdfIntegrator, GroundTruthAt20cm) {
-  checkGroundTruth(0.2, true);
+  checkGroundTruth(0.2, /*occupied_everywhere=*/true);
 }
 TEST(EsdfIntegrator, GroundTruthAt10cm) {
-  checkGroundTruth(0.1, true);
+  checkGroundTruth(0.1, /*occupied_everywhere=*/true);
 }
 TEST(EsdfIntegrator, GroundTruthWithTheOccupiedSphereAt20cm) {
-  checkGroundTruth(0.2, false);
+  checkGroundTruth(0.2, /*occupied_everywhere=*/false);
 }
 TEST(EsdfIntegrator, GroundTruthWithTheOccupiedSphereAt10cm) {
-  checkGroundTruth(0.1, false);
+  checkGroundTruth(0.1, /*occupied_everywhere=*/false);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -48,18 +48,16 @@ struct EsdfIntegratorOptions {
   /// r_c: unobserved voxels this close to the initial position count as observed free [m]. Wins
   /// over occupied_radius where both apply.
   double clear_radius = 1.5;
-  /// r_o: unobserved voxels this close to the current position count as occupied [m]. Smaller
-  /// than clear_radius is allowed (then only the clear sphere's outside is occupied near the
-  /// start).
+  /// r_o, the paper's occupied sphere (used only with occupied_everywhere off): unobserved voxels
+  /// this close to the current position count as occupied [m]. Smaller than clear_radius is
+  /// allowed (then only the clear sphere's outside is occupied near the start).
   double occupied_radius = 5.0;
-  /// Unobserved voxels outside the clear sphere are occupied sites wherever they are, not only
-  /// within occupied_radius of the current position (which this leaves unused; false gives the
-  /// paper's sphere). Within
-  /// occupied_radius - max_distance - one voxel of the current position the distances are the
-  /// sphere's bit for bit (a path to a site beyond the sphere is longer than max_distance); farther
-  /// out they can only be shorter, and the flags are the same everywhere. Nothing moves with the
-  /// vehicle, so an update does only the work its TSDF changes make, and unobserved space takes
-  /// no state.
+  /// Unobserved voxels outside the clear sphere are occupied sites wherever they are; false: only
+  /// within occupied_radius of the current position (the paper's sphere). Within occupied_radius -
+  /// max_distance - one voxel of the current position the distances are the sphere's bit for bit
+  /// (a path to a site beyond the sphere is longer than max_distance); farther out they can only
+  /// be shorter, and the flags are the same everywhere. Nothing moves with the vehicle, so an
+  /// update does only the work its TSDF changes make, and unobserved space takes no state.
   bool occupied_everywhere = true;
   /// Observed voxels with |TSDF distance| <= this * voxel size are fixed sites. Wider than one
   /// voxel, so that surfaces seen at grazing angles (the ground), whose projective distances
