@@ -169,6 +169,19 @@ thicket::odometry_t vioAt(int k) {
   return vio;
 }
 
+// The message times of the state estimates heard on `lcm`.
+void collectStates(lcm::LCM& lcm, std::set<int64_t>& seen) {
+  lcm.subscribeFunction(
+      "STATE_ESTIMATE",
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string&, std::set<int64_t>* seen) {
+        thicket::odometry_t state;
+        if (state.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) > 0) {
+          seen->insert(state.utime);
+        }
+      },
+      &seen);
+}
+
 TEST(RadioLink, TheVehicleSheetRunsThroughALinkOutage) {
   const thicket::procman::test_support::DescendantReaper reaper;
   Link link;
@@ -181,16 +194,9 @@ TEST(RadioLink, TheVehicleSheetRunsThroughALinkOutage) {
                              std::string("--link=") + kLinkUrl, "--report=1"});
   const ChildProcess deputy({THICKET_DEPUTY, "-i", "vehicle", "-u", kVehicleUrl});
   lcm::LCM ground(kLinkUrl);
-  std::set<int64_t> states_on_ground;
-  ground.subscribeFunction(
-      "STATE_ESTIMATE",
-      +[](const lcm::ReceiveBuffer* rbuf, const std::string&, std::set<int64_t>* seen) {
-        thicket::odometry_t state;
-        if (state.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) > 0) {
-          seen->insert(state.utime);
-        }
-      },
-      &states_on_ground);
+  std::set<int64_t> states_on_ground, states_on_board;
+  collectStates(ground, states_on_ground);
+  collectStates(vehicle, states_on_board);
   ASSERT_GE(ground.getFileno(), 0);
 
   const auto sheriff = [&](const std::string& script) {
@@ -211,7 +217,10 @@ TEST(RadioLink, TheVehicleSheetRunsThroughALinkOutage) {
       const thicket::odometry_t vio = vioAt(++k);
       vehicle.publish("VIO_ODOMETRY", &vio);
       const auto next = std::chrono::steady_clock::now() + std::chrono::milliseconds(10);
-      while (std::chrono::steady_clock::now() < next) ground.handleTimeout(2);
+      while (std::chrono::steady_clock::now() < next) {
+        vehicle.handleTimeout(0);
+        ground.handleTimeout(2);
+      }
     }
   };
   const auto heard = [&](int from) {
@@ -230,12 +239,16 @@ TEST(RadioLink, TheVehicleSheetRunsThroughALinkOutage) {
   const int first_dark = k + 1;
   fly(200);
   const int last_dark = k;
+  // What the ground heard while the radio was down. Not what it hears after: a process starved
+  // of the CPU may still hold the last dark estimates when the link is back, and sending them
+  // then is right.
+  const std::set<int64_t> heard_while_down = states_on_ground;
   ASSERT_TRUE(link.restore());
   const int back = k + 1;
   for (int i = 0; i < 1000 && !heard(back); ++i) fly(1);
   EXPECT_TRUE(heard(back)) << bridge.output();
   for (int n = first_dark; n <= last_dark; ++n) {
-    EXPECT_EQ(states_on_ground.count(vioAt(n).utime), 0u) << n;
+    EXPECT_EQ(heard_while_down.count(vioAt(n).utime), 0u) << n;
   }
 
   ASSERT_TRUE(sheriff("shutdown"));
@@ -249,12 +262,14 @@ TEST(RadioLink, TheVehicleSheetRunsThroughALinkOutage) {
     }
   }
   EXPECT_TRUE(reader.error().empty()) << reader.error();
+  // A missing estimate marked (bus) was on the vehicle bus, so the recorder lost it; unmarked,
+  // this test did not hear it on the bus either.
   int missing = 0;
   std::string which;
   for (int n = first_dark; n <= last_dark; ++n) {
     if (logged.count(vioAt(n).utime) == 0) {
       ++missing;
-      which += " " + std::to_string(n);
+      which += " " + std::to_string(n) + (states_on_board.count(vioAt(n).utime) ? "(bus)" : "");
     }
   }
   EXPECT_EQ(missing, 0) << "of " << last_dark - first_dark + 1 << " state estimates:" << which
